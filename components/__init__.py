@@ -1,0 +1,9 @@
+"""Component types: small dataclasses holding handles (store rows) and parameters.
+
+Hot numbers live in the :class:`~twig_ecs.store.PhysicsState` arrays; components say
+which rows belong to which entity and carry authoring parameters.
+"""
+
+from twig_ecs.components.physics import Body, GrabJoint, Link, Name, Node, PainSensor
+
+__all__ = ["Body", "GrabJoint", "Link", "Name", "Node", "PainSensor"]

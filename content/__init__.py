@@ -1,0 +1,1 @@
+"""Built-in content shipped with twig-ecs: body templates (bodies/) and scenes (scenes/)."""

@@ -1,0 +1,346 @@
+"""collide: capsule/sphere contacts as constraints, with a grid broad phase (SPEC 2).
+
+Reads node ``pos``/``prev``/``inv_mass`` and the collider table. Once per step a uniform
+grid (spatial hash) finds candidate pairs whose padded boxes overlap; then each
+relaxation round separates every penetrating pair along the contact normal and
+re-projects links and the ground, so contacts and rigid links settle together.
+Writes node ``pos`` and IN_CONTACT flags, and the tactile record of each collider
+(``hit_energy``, ``hit_by``: the impact kinetic energy along the normal and who hit it).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+from twig_ecs.systems.constrain import constraint_args, node_weight, relax_once
+
+from twig_ecs.store import NODE_IN_CONTACT
+from twig_ecs.system import System
+
+#: Padding (m) added to every box in the broad phase so that pairs closing in during
+#: the step's relaxation are still found.
+BROAD_MARGIN = 0.05
+#: Broad-phase grid cell edge (m); about one limb long.
+CELL_SIZE = 0.5
+
+
+@njit(cache=True)
+def _cell_hash(ix, iy, iz, mask):
+    h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)
+    return h & mask
+
+
+@njit(cache=True)
+def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, margin, cell, pairs):
+    """Candidate collider pairs whose padded boxes overlap, via a spatial hash grid.
+
+    Writes up to ``len(pairs)`` pairs and returns how many there are in all; when that
+    exceeds the capacity the caller grows ``pairs`` and calls again.
+    """
+    lo = np.empty((n_col, 3), dtype=np.float64)
+    hi = np.empty((n_col, 3), dtype=np.float64)
+    cl = np.empty((n_col, 3), dtype=np.int64)
+    ch = np.empty((n_col, 3), dtype=np.int64)
+    n_entries = 0
+    for c in range(n_col):
+        a = col_a[c]
+        b = col_b[c]
+        pad = col_r[c] + margin
+        for k in range(3):
+            lo[c, k] = min(pos[a, k], pos[b, k]) - pad
+            hi[c, k] = max(pos[a, k], pos[b, k]) + pad
+            cl[c, k] = int(math.floor(lo[c, k] / cell))
+            ch[c, k] = int(math.floor(hi[c, k] / cell))
+        n_entries += (ch[c, 0] - cl[c, 0] + 1) * (ch[c, 1] - cl[c, 1] + 1) * (ch[c, 2] - cl[c, 2] + 1)
+    size = 16
+    while size < 2 * n_entries:
+        size *= 2
+    hmask = size - 1
+    start = np.zeros(size + 1, dtype=np.int64)
+    for c in range(n_col):
+        for ix in range(cl[c, 0], ch[c, 0] + 1):
+            for iy in range(cl[c, 1], ch[c, 1] + 1):
+                for iz in range(cl[c, 2], ch[c, 2] + 1):
+                    start[_cell_hash(ix, iy, iz, hmask) + 1] += 1
+    for h in range(size):
+        start[h + 1] += start[h]
+    fill = start[:-1].copy()
+    entry_col = np.empty(n_entries, dtype=np.int64)
+    for c in range(n_col):
+        for ix in range(cl[c, 0], ch[c, 0] + 1):
+            for iy in range(cl[c, 1], ch[c, 1] + 1):
+                for iz in range(cl[c, 2], ch[c, 2] + 1):
+                    h = _cell_hash(ix, iy, iz, hmask)
+                    entry_col[fill[h]] = c
+                    fill[h] += 1
+    n_pairs = 0
+    cap = pairs.shape[0]
+    for h in range(size):
+        for e1 in range(start[h], start[h + 1]):
+            i = entry_col[e1]
+            for e2 in range(e1 + 1, start[h + 1]):
+                j = entry_col[e2]
+                if i == j:
+                    continue
+                # boxes overlap?
+                overlap = True
+                for k in range(3):
+                    if lo[i, k] > hi[j, k] or lo[j, k] > hi[i, k]:
+                        overlap = False
+                        break
+                if not overlap:
+                    continue
+                # count each pair once: in the cell holding the low corner of the overlap
+                ox = int(math.floor(max(lo[i, 0], lo[j, 0]) / cell))
+                oy = int(math.floor(max(lo[i, 1], lo[j, 1]) / cell))
+                oz = int(math.floor(max(lo[i, 2], lo[j, 2]) / cell))
+                if _cell_hash(ox, oy, oz, hmask) != h:
+                    continue
+                # the low-corner cell may share this hash bucket with another cell that
+                # both colliders also occupy: check the pair really lies in that cell
+                if not (
+                    cl[i, 0] <= ox <= ch[i, 0]
+                    and cl[i, 1] <= oy <= ch[i, 1]
+                    and cl[i, 2] <= oz <= ch[i, 2]
+                    and cl[j, 0] <= ox <= ch[j, 0]
+                    and cl[j, 1] <= oy <= ch[j, 1]
+                    and cl[j, 2] <= oz <= ch[j, 2]
+                ):
+                    continue
+                if col_body[i] == col_body[j] and (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
+                    continue
+                if n_pairs < cap:
+                    pairs[n_pairs, 0] = min(i, j)
+                    pairs[n_pairs, 1] = max(i, j)
+                n_pairs += 1
+    return n_pairs
+
+
+@njit(cache=True)
+def closest_segment_params(p1, q1, p2, q2):
+    """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson 5.1.9)."""
+    d1x = q1[0] - p1[0]
+    d1y = q1[1] - p1[1]
+    d1z = q1[2] - p1[2]
+    d2x = q2[0] - p2[0]
+    d2y = q2[1] - p2[1]
+    d2z = q2[2] - p2[2]
+    rx = p1[0] - p2[0]
+    ry = p1[1] - p2[1]
+    rz = p1[2] - p2[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-12
+    if a <= eps and e <= eps:
+        return 0.0, 0.0
+    if a <= eps:
+        return 0.0, min(max(f / e, 0.0), 1.0)
+    c = d1x * rx + d1y * ry + d1z * rz
+    if e <= eps:
+        return min(max(-c / a, 0.0), 1.0), 0.0
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    denom = a * e - b * b
+    s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > eps else 0.0
+    t = (b * s + f) / e
+    if t < 0.0:
+        t = 0.0
+        s = min(max(-c / a, 0.0), 1.0)
+    elif t > 1.0:
+        t = 1.0
+        s = min(max((b - c) / a, 0.0), 1.0)
+    return s, t
+
+
+@njit(cache=True)
+def resolve_contacts(
+    pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, record, dt
+):
+    """One pass over candidate pairs: separate penetrating capsules along the normal.
+
+    Each capsule's end nodes move in proportion to their share of the contact point
+    (s, 1-s) and inverse mass, so the correction is equal and opposite (momentum kept).
+    With ``record`` set, the impact energy 1/2 mu u^2 (u: closing speed along the normal,
+    mu: reduced mass at the contact) is written to the tactile record. Returns the
+    largest penetration (m) met in this pass.
+    """
+    worst = 0.0
+    for k in range(n_pairs):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        a = col_a[i]
+        b = col_b[i]
+        c = col_a[j]
+        d = col_b[j]
+        s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
+        px = pos[a, 0] + s * (pos[b, 0] - pos[a, 0])
+        py = pos[a, 1] + s * (pos[b, 1] - pos[a, 1])
+        pz = pos[a, 2] + s * (pos[b, 2] - pos[a, 2])
+        qx = pos[c, 0] + t * (pos[d, 0] - pos[c, 0])
+        qy = pos[c, 1] + t * (pos[d, 1] - pos[c, 1])
+        qz = pos[c, 2] + t * (pos[d, 2] - pos[c, 2])
+        nx = px - qx
+        ny = py - qy
+        nz = pz - qz
+        dist = math.sqrt(nx * nx + ny * ny + nz * nz)
+        depth = col_r[i] + col_r[j] - dist
+        if depth <= 0.0:
+            continue
+        if depth > worst:
+            worst = depth
+        if dist > 1e-9:
+            nx /= dist
+            ny /= dist
+            nz /= dist
+        else:
+            nx = 0.0
+            ny = 1.0
+            nz = 0.0
+        wa = node_weight(inv_mass, flags, a)
+        wb = node_weight(inv_mass, flags, b) if b != a else 0.0
+        wc = node_weight(inv_mass, flags, c)
+        wd = node_weight(inv_mass, flags, d) if d != c else 0.0
+        sa = 1.0 - s if b != a else 1.0
+        tc = 1.0 - t if d != c else 1.0
+        wi = sa * sa * wa + s * s * wb
+        wj = tc * tc * wc + t * t * wd
+        w = wi + wj
+        if w == 0.0:
+            continue
+        if record:
+            # closing speed of the two contact points along n
+            ux = (
+                sa * (pos[a, 0] - prev[a, 0])
+                + s * (pos[b, 0] - prev[b, 0])
+                - tc * (pos[c, 0] - prev[c, 0])
+                - t * (pos[d, 0] - prev[d, 0])
+            )
+            uy = (
+                sa * (pos[a, 1] - prev[a, 1])
+                + s * (pos[b, 1] - prev[b, 1])
+                - tc * (pos[c, 1] - prev[c, 1])
+                - t * (pos[d, 1] - prev[d, 1])
+            )
+            uz = (
+                sa * (pos[a, 2] - prev[a, 2])
+                + s * (pos[b, 2] - prev[b, 2])
+                - tc * (pos[c, 2] - prev[c, 2])
+                - t * (pos[d, 2] - prev[d, 2])
+            )
+            closing = -(ux * nx + uy * ny + uz * nz) / dt
+            if closing > 0.0:
+                energy = 0.5 * closing * closing / w
+                if energy > hit_energy[i]:
+                    hit_energy[i] = energy
+                    hit_by[i] = j
+                if energy > hit_energy[j]:
+                    hit_energy[j] = energy
+                    hit_by[j] = i
+        lam = depth / w
+        fa = lam * sa * wa
+        fb = lam * s * wb
+        fc = lam * tc * wc
+        fd = lam * t * wd
+        pos[a, 0] += fa * nx
+        pos[a, 1] += fa * ny
+        pos[a, 2] += fa * nz
+        pos[b, 0] += fb * nx
+        pos[b, 1] += fb * ny
+        pos[b, 2] += fb * nz
+        pos[c, 0] -= fc * nx
+        pos[c, 1] -= fc * ny
+        pos[c, 2] -= fc * nz
+        pos[d, 0] -= fd * nx
+        pos[d, 1] -= fd * ny
+        pos[d, 2] -= fd * nz
+        # a contact pushing a capsule upwards supports it: high (ground) damping
+        if ny > 0.5:
+            flags[a] |= NODE_IN_CONTACT
+            flags[b] |= NODE_IN_CONTACT
+        elif ny < -0.5:
+            flags[c] |= NODE_IN_CONTACT
+            flags[d] |= NODE_IN_CONTACT
+    return worst
+
+
+@njit(cache=True)
+def solve_collisions(
+    prev, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_col, iterations, dt, *cargs
+):
+    """Relaxation rounds of contacts then all other constraints (``cargs``: see
+    :func:`~twig_ecs.systems.constrain.constraint_args`); returns the residual penetration."""
+    pos, inv_mass, flags = cargs[0], cargs[1], cargs[2]
+    for c in range(n_col):
+        hit_energy[c] = 0.0
+        hit_by[c] = -1
+    for it in range(iterations):
+        resolve_contacts(
+            pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, it == 0, dt
+        )
+        relax_once(*cargs)
+    # measure only: the deepest overlap left after this step's relaxation
+    worst = 0.0
+    for k in range(n_pairs):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        s, t = closest_segment_params(pos[col_a[i]], pos[col_b[i]], pos[col_a[j]], pos[col_b[j]])
+        dx = 0.0
+        for q in range(3):
+            e = (
+                pos[col_a[i], q]
+                + s * (pos[col_b[i], q] - pos[col_a[i], q])
+                - pos[col_a[j], q]
+                - t * (pos[col_b[j], q] - pos[col_a[j], q])
+            )
+            dx += e * e
+        depth = col_r[i] + col_r[j] - math.sqrt(dx)
+        if depth > worst:
+            worst = depth
+    return worst
+
+
+class CollideSystem(System):
+    """Finds and resolves capsule/sphere contacts; records impacts for sensing."""
+
+    name = "collide"
+
+    def process(self, dt: float) -> None:
+        """Broad phase once, then ``settings.iterations`` contact relaxation rounds."""
+        s = self.scene.state
+        n, col = s.nodes, s.colliders
+        if col.count < 2:
+            s.stats[0] = 0.0
+            return
+        args = (
+            n.pos,
+            col.a,
+            col.b,
+            col.radius,
+            col.body,
+            col.local,
+            col.mask,
+            col.count,
+            BROAD_MARGIN,
+            CELL_SIZE,
+        )
+        n_pairs = broad_phase(*args, s.pairs)
+        if n_pairs > len(s.pairs):
+            s.pairs = np.zeros((2 * n_pairs, 2), dtype=np.int32)
+            n_pairs = broad_phase(*args, s.pairs)
+        s.stats[0] = solve_collisions(
+            n.prev,
+            col.a,
+            col.b,
+            col.radius,
+            s.pairs,
+            n_pairs,
+            col.hit_energy,
+            col.hit_by,
+            col.count,
+            self.scene.settings.iterations,
+            dt,
+            *constraint_args(s),
+        )
+        s.n_pairs = n_pairs

@@ -1,0 +1,289 @@
+"""constrain: rigid links, grab joints, joint limits, axles and the ground, by projection.
+
+Reads and writes node ``pos`` (and ``flags``/``lock_pos`` for lock-on-contact);
+reads links, limits and axle data. Several Gauss-Seidel relaxation passes per step
+(SPEC 2): each violated constraint moves its nodes straight onto it, mass-weighted so
+that equal and opposite corrections keep the total momentum.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED
+from twig_ecs.system import System
+
+#: Distance (m) within which a node counts as touching the ground.
+CONTACT_SLOP = 1e-3
+
+
+@njit(cache=True, inline="always")
+def node_weight(inv_mass, flags, i):
+    """Inverse mass of node i as constraints see it (0 while locked)."""
+    if flags[i] & NODE_LOCKED:
+        return 0.0
+    return inv_mass[i]
+
+
+@njit(cache=True)
+def project_links(pos, inv_mass, flags, la, lb, rest, count):
+    """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o."""
+    for k in range(count):
+        i = la[k]
+        j = lb[k]
+        wi = node_weight(inv_mass, flags, i)
+        wj = node_weight(inv_mass, flags, j)
+        w = wi + wj
+        if w == 0.0:
+            continue
+        ox = pos[i, 0] - pos[j, 0]
+        oy = pos[i, 1] - pos[j, 1]
+        oz = pos[i, 2] - pos[j, 2]
+        length = math.sqrt(ox * ox + oy * oy + oz * oz)
+        if length < 1e-12:
+            continue
+        f = (length - rest[k]) / (length * w)
+        pos[i, 0] -= wi * f * ox
+        pos[i, 1] -= wi * f * oy
+        pos[i, 2] -= wi * f * oz
+        pos[j, 0] += wj * f * ox
+        pos[j, 1] += wj * f * oy
+        pos[j, 2] += wj * f * oz
+
+
+@njit(cache=True)
+def _wrap(angle):
+    while angle > math.pi:
+        angle -= 2.0 * math.pi
+    while angle < -math.pi:
+        angle += 2.0 * math.pi
+    return angle
+
+
+@njit(cache=True)
+def project_limits(pos, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, count):
+    """One pass over hinge limits (knees, elbows).
+
+    The mid node is rotated about the root-tip line into the allowed arc, which keeps
+    both link lengths; root and tip take the mass-weighted reaction.
+    """
+    for k in range(count):
+        r = root[k]
+        m = mid[k]
+        t = tip[k]
+        # body frame: L points to the body's left, U up, F = L x U forward
+        lx = pos[frame[k, 0], 0] - pos[frame[k, 1], 0]
+        ly = pos[frame[k, 0], 1] - pos[frame[k, 1], 1]
+        lz = pos[frame[k, 0], 2] - pos[frame[k, 1], 2]
+        ux = pos[frame[k, 3], 0] - pos[frame[k, 2], 0]
+        uy = pos[frame[k, 3], 1] - pos[frame[k, 2], 1]
+        uz = pos[frame[k, 3], 2] - pos[frame[k, 2], 2]
+        fx = ly * uz - lz * uy
+        fy = lz * ux - lx * uz
+        fz = lx * uy - ly * ux
+        fn = math.sqrt(fx * fx + fy * fy + fz * fz)
+        un = math.sqrt(ux * ux + uy * uy + uz * uz)
+        if fn < 1e-9 or un < 1e-9:
+            continue
+        # reference (0-angle) direction
+        rx = ref[k, 0] * fx / fn + ref[k, 1] * ux / un
+        ry = ref[k, 0] * fy / fn + ref[k, 1] * uy / un
+        rz = ref[k, 0] * fz / fn + ref[k, 1] * uz / un
+        ax = pos[t, 0] - pos[r, 0]
+        ay = pos[t, 1] - pos[r, 1]
+        az = pos[t, 2] - pos[r, 2]
+        an = math.sqrt(ax * ax + ay * ay + az * az)
+        if an < 1e-9:
+            continue
+        ax /= an
+        ay /= an
+        az /= an
+        vx = pos[m, 0] - pos[r, 0]
+        vy = pos[m, 1] - pos[r, 1]
+        vz = pos[m, 2] - pos[r, 2]
+        va = vx * ax + vy * ay + vz * az
+        px = vx - va * ax
+        py = vy - va * ay
+        pz = vz - va * az
+        plen = math.sqrt(px * px + py * py + pz * pz)
+        if plen < 1e-6:
+            continue  # straight: allowed, and no direction to judge
+        ra = rx * ax + ry * ay + rz * az
+        rx -= ra * ax
+        ry -= ra * ay
+        rz -= ra * az
+        rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if rn < 1e-6:
+            continue  # reference along the limb: no preferred side
+        rx /= rn
+        ry /= rn
+        rz /= rn
+        # outward axis S = a x R, flipped towards the limb's side
+        sx = ay * rz - az * ry
+        sy = az * rx - ax * rz
+        sz = ax * ry - ay * rx
+        if (sx * lx + sy * ly + sz * lz) * side[k] < 0.0:
+            sx = -sx
+            sy = -sy
+            sz = -sz
+        phi = math.atan2(px * sx + py * sy + pz * sz, px * rx + py * ry + pz * rz)
+        if arc_min[k] <= phi <= arc_max[k]:
+            continue
+        if abs(_wrap(phi - arc_min[k])) < abs(_wrap(phi - arc_max[k])):
+            phi = arc_min[k]
+        else:
+            phi = arc_max[k]
+        c = math.cos(phi) * plen
+        s = math.sin(phi) * plen
+        dx = c * rx + s * sx - px
+        dy = c * ry + s * sy - py
+        dz = c * rz + s * sz - pz
+        wm = node_weight(inv_mass, flags, m)
+        wr = node_weight(inv_mass, flags, r)
+        wt = node_weight(inv_mass, flags, t)
+        we = wr * wt / (wr + wt) if wr > 0.0 and wt > 0.0 else 0.0
+        w = wm + we
+        if w == 0.0:
+            continue
+        fm = wm / w
+        fe = we / w
+        pos[m, 0] += fm * dx
+        pos[m, 1] += fm * dy
+        pos[m, 2] += fm * dz
+        for e in (r, t):
+            pos[e, 0] -= fe * dx
+            pos[e, 1] -= fe * dy
+            pos[e, 2] -= fe * dz
+
+
+@njit(cache=True)
+def project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, count):
+    """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
+    for i in range(count):
+        a = axle_a[i]
+        if a < 0 or flags[i] & NODE_LOCKED:
+            continue
+        b = axle_b[i]
+        ax = pos[b, 0] - pos[a, 0]
+        ay = pos[b, 1] - pos[a, 1]
+        az = pos[b, 2] - pos[a, 2]
+        an = math.sqrt(ax * ax + ay * ay + az * az)
+        ax /= an
+        ay /= an
+        az /= an
+        vx = pos[i, 0] - pos[a, 0]
+        vy = pos[i, 1] - pos[a, 1]
+        vz = pos[i, 2] - pos[a, 2]
+        h = vx * ax + vy * ay + vz * az
+        px = vx - h * ax
+        py = vy - h * ay
+        pz = vz - h * az
+        plen = math.sqrt(px * px + py * py + pz * pz)
+        if plen < 1e-9:
+            continue
+        f = axle_radius[i] / plen
+        hh = axle_height[i]
+        pos[i, 0] = pos[a, 0] + hh * ax + f * px
+        pos[i, 1] = pos[a, 1] + hh * ay + f * py
+        pos[i, 2] = pos[a, 2] + hh * az + f * pz
+
+
+@njit(cache=True)
+def project_ground(pos, radius, flags, lock_pos, count):
+    """Ground plane y = 0: no node sinks below its radius; mark contacts, lock on contact."""
+    for i in range(count):
+        f = flags[i]
+        if f & NODE_LOCKED:
+            continue
+        r = radius[i]
+        if pos[i, 1] < r + CONTACT_SLOP:
+            if pos[i, 1] < r:
+                pos[i, 1] = r
+            f |= NODE_IN_CONTACT
+            if f & NODE_LOCK_ON_CONTACT:
+                f |= NODE_LOCKED
+                for k in range(3):
+                    lock_pos[i, k] = pos[i, k]
+            flags[i] = f
+
+
+@njit(cache=True)
+def relax_once(
+    pos,
+    inv_mass,
+    flags,
+    radius,
+    lock_pos,
+    n_nodes,
+    la,
+    lb,
+    rest,
+    n_links,
+    root,
+    mid,
+    tip,
+    frame,
+    side,
+    ref,
+    arc_min,
+    arc_max,
+    n_limits,
+    axle_a,
+    axle_b,
+    axle_radius,
+    axle_height,
+):
+    """One relaxation pass: links (and grab joints), limits, axles, then the ground."""
+    project_links(pos, inv_mass, flags, la, lb, rest, n_links)
+    project_limits(pos, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, n_limits)
+    project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
+    project_ground(pos, radius, flags, lock_pos, n_nodes)
+
+
+@njit(cache=True)
+def solve_constraints(iterations, *cargs):
+    """Gauss-Seidel relaxation of every constraint, ``iterations`` times."""
+    for _ in range(iterations):
+        relax_once(*cargs)
+
+
+def constraint_args(state) -> tuple:
+    """The store arrays :func:`relax_once` takes, in order."""
+    n, lk, lim = state.nodes, state.links, state.limits
+    return (
+        n.pos,
+        n.inv_mass,
+        n.flags,
+        n.radius,
+        n.lock_pos,
+        n.count,
+        lk.a,
+        lk.b,
+        lk.rest,
+        lk.count,
+        lim.root,
+        lim.mid,
+        lim.tip,
+        lim.frame,
+        lim.side,
+        lim.ref,
+        lim.arc_min,
+        lim.arc_max,
+        lim.count,
+        n.axle_a,
+        n.axle_b,
+        n.axle_radius,
+        n.axle_height,
+    )
+
+
+class ConstrainSystem(System):
+    """Projects links, grab joints, joint limits, axles and the ground plane."""
+
+    name = "constrain"
+
+    def process(self, dt: float) -> None:
+        """Relax all constraints ``settings.iterations`` times."""
+        solve_constraints(self.scene.settings.iterations, *constraint_args(self.scene.state))

@@ -1,0 +1,87 @@
+"""integrate: Verlet integration with damping (SPEC 2).
+
+Reads node ``pos``, ``prev``, ``acc``, damping, ``flags``; the scene's gravity.
+Writes ``pos``, ``prev``, ``vel`` (the step's displacement before damping), clears
+``acc`` and the IN_CONTACT flag (constrain and collide set it again this step).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
+from twig_ecs.system import System
+
+
+@njit(cache=True)
+def integrate_nodes(
+    pos,
+    prev,
+    vel,
+    acc,
+    lock_pos,
+    inv_mass,
+    damp_air,
+    damp_ground,
+    damp_ref,
+    damp_rel,
+    flags,
+    count,
+    gravity,
+    dt,
+):
+    """One Verlet step for every node, in place."""
+    for i in range(count):
+        for k in range(3):
+            vel[i, k] = pos[i, k] - prev[i, k]
+    dt2 = dt * dt
+    for i in range(count):
+        f = flags[i]
+        if f & NODE_LOCKED:
+            for k in range(3):
+                pos[i, k] = lock_pos[i, k]
+                prev[i, k] = lock_pos[i, k]
+                acc[i, k] = 0.0
+            continue
+        d = damp_ground[i] if f & NODE_IN_CONTACT else damp_air[i]
+        ref = damp_ref[i]
+        g = 1.0 if inv_mass[i] > 0.0 else 0.0
+        for k in range(3):
+            v = vel[i, k]
+            if ref >= 0:
+                # "muscle" damping: remove part of the velocity relative to ref
+                v -= damp_rel[i] * (v - vel[ref, k])
+            # p(t+dt) = p(t) + (1-d)(p(t) - p(t-dt)) + a dt^2
+            new = pos[i, k] + (1.0 - d) * v + (acc[i, k] + g * gravity[k]) * dt2
+            prev[i, k] = pos[i, k]
+            pos[i, k] = new
+            acc[i, k] = 0.0
+        flags[i] = f & ~np.uint32(NODE_IN_CONTACT)
+
+
+class IntegrateSystem(System):
+    """Moves every node by Verlet integration with air/ground and muscle damping."""
+
+    name = "integrate"
+
+    def process(self, dt: float) -> None:
+        """Integrate all nodes one step."""
+        s = self.scene.state
+        n = s.nodes
+        integrate_nodes(
+            n.pos,
+            n.prev,
+            n.vel,
+            n.acc,
+            n.lock_pos,
+            n.inv_mass,
+            n.damp_air,
+            n.damp_ground,
+            n.damp_ref,
+            n.damp_rel,
+            n.flags,
+            n.count,
+            self.scene.settings.gravity,
+            dt,
+        )

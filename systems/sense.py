@@ -1,0 +1,79 @@
+"""sense: tactile sensing and pain (SPEC 2).
+
+Reads the colliders' tactile record written by collide (``hit_energy``, ``hit_by``)
+and the bodies' pain parameters. Writes ``bodies.pain`` (decayed exponentially with
+each body's half-life, raised by impacts above its threshold) and emits
+:class:`~twig_ecs.events.Contact` and :class:`~twig_ecs.events.Pain` events.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from twig_ecs.events import Contact, Pain
+from twig_ecs.system import System
+
+
+@njit(cache=True)
+def feel_impacts(
+    hit_energy, hit_by, col_body, n_col, pain, pain_threshold, pain_half_life, pain_gain, n_bodies, dt
+):
+    """Decay every pain level, then add each impact at or above its body's threshold."""
+    for b in range(n_bodies):
+        pain[b] *= math.exp(-math.log(2.0) * dt / pain_half_life[b])
+    for c in range(n_col):
+        e = hit_energy[c]
+        if e <= 0.0 or hit_by[c] < 0:
+            continue
+        b = col_body[c]
+        if col_body[hit_by[c]] != b and e >= pain_threshold[b]:
+            pain[b] += pain_gain[b] * e
+
+
+class SenseSystem(System):
+    """Turns impacts into pain levels and contact/pain events."""
+
+    name = "sense"
+
+    def process(self, dt: float) -> None:
+        """Update pain; emit events for impacts above the contact threshold."""
+        s = self.scene.state
+        col, bodies = s.colliders, s.bodies
+        feel_impacts(
+            col.hit_energy,
+            col.hit_by,
+            col.body,
+            col.count,
+            bodies.pain,
+            bodies.pain_threshold,
+            bodies.pain_half_life,
+            bodies.pain_gain,
+            bodies.count,
+            dt,
+        )
+        # Events are rare (only real impacts), so building them in Python is cheap.
+        struck = np.flatnonzero(col.hit_energy[: col.count] >= self.scene.settings.contact_energy)
+        for c in struck:
+            other = int(col.hit_by[c])
+            b, ob = int(col.body[c]), int(col.body[other])
+            if b == ob:
+                continue
+            energy = float(col.hit_energy[c])
+            body_e, other_e = int(bodies.entity[b]), int(bodies.entity[ob])
+            link_e, other_link_e = self._collider_entity(c), self._collider_entity(other)
+            # one contact event per pair: the side with the lower index reports it
+            if c < other or int(col.hit_by[other]) != c:
+                self.scene.emit(Contact(body_e, link_e, other_e, other_link_e, energy))
+            if energy >= bodies.pain_threshold[b]:
+                level = float(bodies.pain[b])
+                self.scene.emit(Pain(body_e, link_e, other_e, energy, level))
+
+    def _collider_entity(self, c: int) -> int:
+        s = self.scene.state
+        link = int(s.colliders.link[c])
+        if link >= 0:
+            return int(s.links.entity[link])
+        return int(s.nodes.entity[s.colliders.a[c]])

@@ -1,0 +1,43 @@
+"""Typed world events: dataclass messages queued during a step.
+
+Systems append events with ``scene.emit(event)``; the queue holds the events of the
+latest step only (it is cleared when the next step begins), and ``scene.event_counts``
+keeps running totals by ``kind``. Handlers registered with ``scene.on(kind, fn)`` are
+called as events are emitted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+
+@dataclass(slots=True, frozen=True)
+class Event:
+    """Base of all events; ``kind`` is the short name used for counts and subscriptions."""
+
+    kind: ClassVar[str] = "event"
+
+
+@dataclass(slots=True, frozen=True)
+class Contact(Event):
+    """Two bodies' colliders met with an impact energy above the contact threshold."""
+
+    kind: ClassVar[str] = "contact"
+    body: int  # entity of the struck body
+    link: int  # entity of its struck link (or the node entity for a sphere)
+    other_body: int
+    other_link: int
+    energy: float  # J, along the contact normal
+
+
+@dataclass(slots=True, frozen=True)
+class Pain(Event):
+    """An impact on a body with a pain sensor exceeded its threshold."""
+
+    kind: ClassVar[str] = "pain"
+    body: int
+    link: int
+    source_body: int  # entity of the body that delivered the blow
+    energy: float  # J
+    level: float  # pain level after the blow

@@ -1,0 +1,112 @@
+"""Handles: the Python API's view of one entity (``scene.entity(name)``)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Body
+from twig_ecs.store import NODE_LOCKED
+from twig_ecs.validate import suggest
+
+if TYPE_CHECKING:
+    from twig_ecs.scene import Scene
+
+
+class BodyHandle:
+    """A spawned body: read its nodes, pain and motion; nudge its nodes.
+
+    Positions are metres, velocities m/s. Reads return copies, never views into the store.
+    """
+
+    def __init__(self, scene: Scene, entity: int, name: str) -> None:
+        self.scene = scene
+        self.entity = entity
+        self.name = name
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} '{self.name}' ({self.body.template})>"
+
+    @property
+    def body(self) -> Body:
+        """The Body component (template name, rows)."""
+        self.scene.activate()
+        return esper.component_for_entity(self.entity, Body)
+
+    @property
+    def template(self) -> str:
+        """Name of the template it was spawned from."""
+        return self.body.template
+
+    @property
+    def node_names(self) -> tuple[str, ...]:
+        """Names of its nodes, in row order."""
+        return self.body.node_names
+
+    def _rows(self) -> slice:
+        b = self.body
+        return slice(b.node_start, b.node_start + len(b.node_names))
+
+    def _row(self, node: str) -> int:
+        b = self.body
+        if node not in b.node_names:
+            raise KeyError(f"'{self.name}' has no node '{node}'" + suggest(node, b.node_names))
+        return b.node_index(node)
+
+    def node(self, name: str) -> np.ndarray:
+        """Position (m) of the named node."""
+        return self.scene.state.nodes.pos[self._row(name)].copy()
+
+    @property
+    def node_positions(self) -> np.ndarray:
+        """(n, 3) positions of all its nodes, in ``node_names`` order."""
+        return self.scene.state.nodes.pos[self._rows()].copy()
+
+    @property
+    def position(self) -> np.ndarray:
+        """Centre of mass (m)."""
+        n, rows = self.scene.state.nodes, self._rows()
+        m = n.mass[rows]
+        return (n.pos[rows] * m[:, None]).sum(axis=0) / m.sum()
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Mass-weighted mean velocity (m/s) over the last step."""
+        n, rows = self.scene.state.nodes, self._rows()
+        m = n.mass[rows]
+        v = (n.pos[rows] - n.prev[rows]) / self.scene.dt
+        return (v * m[:, None]).sum(axis=0) / m.sum()
+
+    @property
+    def mass(self) -> float:
+        """Total mass (kg)."""
+        return float(self.scene.state.nodes.mass[self._rows()].sum())
+
+    @property
+    def pain(self) -> float:
+        """Current pain level (0 without a pain sensor)."""
+        return float(self.scene.state.bodies.pain[self.body.index])
+
+    def set_node_velocity(self, node: str, velocity: tuple[float, float, float]) -> None:
+        """Give one node a velocity (m/s) from now on (Verlet: moves its previous position)."""
+        i = self._row(node)
+        n = self.scene.state.nodes
+        n.prev[i] = n.pos[i] - np.asarray(velocity, dtype=np.float64) * self.scene.dt
+
+    def set_velocity(self, velocity: tuple[float, float, float]) -> None:
+        """Give every free node of the body the same velocity (m/s)."""
+        n, rows = self.scene.state.nodes, self._rows()
+        free = (n.flags[rows] & NODE_LOCKED) == 0
+        v = np.asarray(velocity, dtype=np.float64) * self.scene.dt
+        idx = np.arange(rows.start, rows.stop)[free]
+        n.prev[idx] = n.pos[idx] - v
+
+    def translate(self, offset: tuple[float, float, float]) -> None:
+        """Move the whole body rigidly by ``offset`` (m), keeping its velocity."""
+        n, rows = self.scene.state.nodes, self._rows()
+        d = np.asarray(offset, dtype=np.float64)
+        n.pos[rows] += d
+        n.prev[rows] += d
+        n.lock_pos[rows] += d

@@ -1,0 +1,292 @@
+"""The Scene: one esper world plus the resources esper lacks, stepped at a fixed 60 Hz.
+
+A Scene owns its world (and switches to it whenever it runs), the
+:class:`~twig_ecs.store.PhysicsState` store, the clock, one seeded RNG, the settings,
+the named system schedule and a typed event queue. Scenes never share entities.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+from collections import Counter
+from collections.abc import Callable
+from pathlib import Path
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Body, GrabJoint, Link, Name, Node
+from twig_ecs.errors import SceneError, TwigError
+from twig_ecs.events import Event
+from twig_ecs.handles import BodyHandle
+from twig_ecs.kernels import ensure_compiled
+from twig_ecs.library import ContentLibrary
+from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_scene
+from twig_ecs.schedule import Schedule
+from twig_ecs.spawn import spawn_body
+from twig_ecs.store import PhysicsState
+from twig_ecs.system import System
+from twig_ecs.validate import suggest
+
+_world_ids = itertools.count(1)
+
+
+class Scene:
+    """A simulated world: bodies, systems, a fixed-step clock and events.
+
+    Build one with :meth:`load` (a YAML file or built-in name) or ``Scene()`` for an
+    empty world, then :meth:`spawn`, :meth:`step` / :meth:`run`, and :meth:`close`.
+    """
+
+    #: The fixed simulation step (s).
+    dt: float = 1.0 / 60.0
+
+    def __init__(
+        self,
+        name: str = "scene",
+        seed: int = 0,
+        settings: Settings | None = None,
+        library: ContentLibrary | None = None,
+    ) -> None:
+        self.name = name
+        self.seed = seed
+        self.settings = settings or Settings()
+        self.library = library or ContentLibrary()
+        self.state = PhysicsState()
+        self.rng = np.random.default_rng(seed)
+        self.frame = 0
+        self.events: list[Event] = []
+        self.event_counts: Counter[str] = Counter()
+        self._handlers: dict[str, list[Callable[[Event], None]]] = {}
+        self._names: dict[str, int] = {}
+        self._world = f"twig-scene-{next(_world_ids)}"
+        self._closed = False
+        self.schedule = Schedule()
+        self._installed: list[System] | None = None
+        self.activate()
+        from twig_ecs.systems import CollideSystem, ConstrainSystem, IntegrateSystem, SenseSystem
+
+        for system in (IntegrateSystem(), ConstrainSystem(), CollideSystem(), SenseSystem()):
+            self.add_system(system)
+
+    # -- construction -------------------------------------------------------------
+
+    @classmethod
+    def load(
+        cls, source: str | Path, seed: int = 0, content: tuple[str | Path, ...] | list[str | Path] = ()
+    ) -> Scene:
+        """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
+
+        ``content`` lists extra folders of templates and scenes. The whole file is
+        validated before anything is created; errors raise :class:`SceneError`.
+        """
+        library = ContentLibrary(content)
+        plan = read_scene(source, library)
+        return cls.from_plan(plan, seed)
+
+    @classmethod
+    def from_plan(cls, plan: ScenePlan, seed: int = 0) -> Scene:
+        """Build a scene from a validated :class:`ScenePlan`."""
+        scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
+        scene.source = plan.file
+        for spec in plan.entities:
+            scene._spawn_spec(spec)
+        return scene
+
+    source: str | None = None
+
+    def _spawn_spec(self, spec: EntitySpec) -> BodyHandle:
+        self.activate()
+        entity = spawn_body(
+            self,
+            spec.template,
+            spec.name,
+            spec.position,
+            spec.facing,
+            spec.height,
+            spec.mass,
+            spec.color,
+            spec.pain,
+            spec.damping,
+        )
+        self._names[spec.name] = entity
+        return BodyHandle(self, entity, spec.name)
+
+    def spawn(
+        self,
+        template: str,
+        name: str | None = None,
+        position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        facing: float = 0.0,
+        **params,
+    ) -> BodyHandle:
+        """Spawn a body from a template by name; returns its handle.
+
+        ``params``: ``height`` (m), ``mass`` (kg, total), ``color`` ([r, g, b]),
+        ``pain`` ({threshold, half_life, gain} or False), ``damping`` ({air, ground}).
+        The name defaults to ``template`` plus a number; it must be unique.
+        """
+        from twig_ecs.scenefile import read_entity
+        from twig_ecs.yamldoc import YDict
+
+        if name is None:
+            name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self._names)
+        if name in self._names:
+            raise SceneError(f"an entity named '{name}' already exists")
+        raw = YDict({"name": name, "body": template, "position": list(position), "facing": facing, **params})
+        raw.file = "<spawn>"
+        spec = read_entity(raw, f"spawn({name!r})", self.library)
+        return self._spawn_spec(spec)
+
+    def remove(self, name: str) -> None:
+        """Remove a body (its nodes, links, limits and any grab joints touching it)."""
+        entity = self._entity_id(name)
+        self.activate()
+        body = esper.component_for_entity(entity, Body)
+        doomed = {entity}
+        remap = self.state.remove_body(body.index)
+        for e, node in list(esper.get_component(Node)):
+            if node.body == entity:
+                doomed.add(e)
+        for e, link in list(esper.get_component(Link)):
+            if link.body == entity:
+                doomed.add(e)
+        for e, grab in list(esper.get_component(GrabJoint)):
+            if entity in (grab.holder, grab.held):
+                doomed.add(e)
+        for e in doomed:
+            esper.delete_entity(e, immediate=True)
+        self._apply_remap(remap)
+        del self._names[name]
+
+    def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
+        """Follow a store compaction: rewrite every row index held by components."""
+        nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
+        for _, node in esper.get_component(Node):
+            node.index = int(nodes[node.index])
+        for _, link in esper.get_component(Link):
+            link.index = int(links[link.index])
+        for _, grab in esper.get_component(GrabJoint):
+            grab.index = int(links[grab.index])
+        for _, body in esper.get_component(Body):
+            body.index = int(bodies[body.index])
+            body.node_start = int(nodes[body.node_start])
+            body.link_start = int(links[body.link_start]) if body.link_count else 0
+
+    # -- systems --------------------------------------------------------------------
+
+    def add_system(
+        self, system: System, name: str | None = None, before: str | None = None, after: str | None = None
+    ) -> System:
+        """Insert a system into the schedule by stage name (see :class:`Schedule`)."""
+        system.scene = self
+        self.schedule.add(system, name=name, before=before, after=after)
+        system.setup()
+        self._installed = None  # re-map onto esper priorities before the next step
+        return system
+
+    def _install(self) -> None:
+        systems = self.schedule.systems()
+        for processor in list(esper._processors):  # noqa: SLF001 - esper has no clear API
+            esper.remove_processor(type(processor))
+        for rank, system in enumerate(systems):
+            esper.add_processor(system, priority=len(systems) - rank)
+        self._installed = systems
+
+    # -- running ----------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s) since the scene started: frame * dt."""
+        return self.frame * self.dt
+
+    def activate(self) -> None:
+        """Make this scene's esper world the current one."""
+        if self._closed:
+            raise TwigError(f"scene '{self.name}' is closed")
+        if esper.current_world != self._world:
+            esper.switch_world(self._world)
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` fixed steps of 1/60 s."""
+        self.activate()
+        if self._installed is None:
+            self._install()
+        if self.state.colliders_dirty:
+            self.state.rebuild_colliders()
+        ensure_compiled()
+        for _ in range(n):
+            self.events.clear()
+            esper.process(self.dt)
+            self.frame += 1
+
+    def run(self, seconds: float) -> None:
+        """Advance by ``seconds`` of simulated time (rounded to whole steps)."""
+        self.step(int(round(seconds / self.dt)))
+
+    # -- events -----------------------------------------------------------------------
+
+    def emit(self, event: Event) -> None:
+        """Queue an event for this step and call its handlers."""
+        self.events.append(event)
+        self.event_counts[event.kind] += 1
+        for handler in self._handlers.get(event.kind, ()):
+            handler(event)
+
+    def on(self, kind: str, handler: Callable[[Event], None]) -> None:
+        """Call ``handler(event)`` for every event of ``kind`` (``"contact"``, ``"pain"``...)."""
+        self._handlers.setdefault(kind, []).append(handler)
+
+    # -- reading ------------------------------------------------------------------------
+
+    def _entity_id(self, name: str) -> int:
+        try:
+            return self._names[name]
+        except KeyError:
+            raise KeyError(f"no entity named '{name}'" + suggest(name, self._names)) from None
+
+    def entity(self, name: str) -> BodyHandle:
+        """The handle of the entity called ``name`` (KeyError with suggestions if unknown)."""
+        return BodyHandle(self, self._entity_id(name), name)
+
+    @property
+    def entity_names(self) -> list[str]:
+        """Names of all named entities, in spawn order."""
+        return list(self._names)
+
+    def name_of(self, entity: int) -> str | None:
+        """The name of an entity (a body, or the body owning a node or link)."""
+        self.activate()
+        for comp in (Node, Link):
+            part = esper.try_component(entity, comp)
+            if part is not None:
+                entity = part.body
+        name = esper.try_component(entity, Name)
+        return name.value if name else None
+
+    def state_hash(self) -> str:
+        """A hash of every node position: equal hashes mean equal trajectories so far."""
+        n = self.state.nodes
+        return hashlib.sha256(np.ascontiguousarray(n.pos[: n.count]).tobytes()).hexdigest()[:16]
+
+    # -- lifetime ------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Delete this scene's world; the scene cannot be used afterwards."""
+        if self._closed:
+            return
+        if esper.current_world == self._world:
+            esper.switch_world("default")
+        if self._world in esper.list_worlds():
+            esper.delete_world(self._world)
+        self._closed = True
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<Scene '{self.name}' t={self.time:.2f}s bodies={self.state.bodies.count}>"

@@ -1,0 +1,169 @@
+"""Spawning: turn a body template into store rows and esper entities."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Body, Link, Name, Node, PainSensor
+from twig_ecs.store import (
+    LINK_COLLIDE,
+    LINK_VISIBLE,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_SPHERE,
+)
+from twig_ecs.templates import BodyTemplate, Damping
+
+if TYPE_CHECKING:
+    from twig_ecs.scene import Scene
+
+
+def yaw_matrix(degrees: float) -> np.ndarray:
+    """Rotation about +y taking the template's forward (+z) to (sin a, 0, cos a)."""
+    a = math.radians(degrees)
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def spawn_body(
+    scene: Scene,
+    template: BodyTemplate,
+    name: str,
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    facing: float = 0.0,
+    height: float | None = None,
+    mass: float | None = None,
+    color: tuple[float, float, float, float] | None = None,
+    pain: PainSensor | None | bool = True,
+    damping: Damping | None = None,
+) -> int:
+    """Create one body: rows in the store plus Body/Node/Link entities. Returns the body entity.
+
+    ``height`` scales lengths and radii by height/reference_height; masses scale by the
+    cube of that unless ``mass`` (total, kg) is given. The caller has validated names.
+    """
+    state = scene.state
+    height = height or template.height
+    scale = height / template.reference_height
+    total = sum(n.mass for n in template.nodes)
+    target_mass = mass or template.mass
+    mass_scale = target_mass / total if target_mass else scale**3
+    rot = yaw_matrix(facing)
+    origin = np.asarray(position, dtype=np.float64)
+    body_color = np.asarray(color or template.color, dtype=np.float32)
+    index = {n.name: k for k, n in enumerate(template.nodes)}
+
+    body = state.add_body()
+    body_entity = esper.create_entity()
+    state.bodies.entity[body] = body_entity
+    state.bodies.self_collide[body] = template.self_collision
+    sensor = template.pain if pain is True else pain
+    if sensor is not None:
+        state.bodies.pain_threshold[body] = sensor.threshold
+        state.bodies.pain_half_life[body] = sensor.half_life
+        state.bodies.pain_gain[body] = sensor.gain
+
+    # -- nodes
+    nodes = state.nodes
+    rows = nodes.allocate(len(template.nodes))
+    first = rows.start
+    local = np.array([n.at for n in template.nodes], dtype=np.float64) * scale
+    world = local @ rot.T + origin
+    nodes.pos[rows] = world
+    nodes.prev[rows] = world
+    nodes.lock_pos[rows] = world
+    nodes.body[rows] = body
+    nodes.color[rows] = body_color
+    # contact radius: the fattest collidable link touching the node, unless given
+    link_radius = np.zeros(len(template.nodes))
+    for link in template.links:
+        if link.collide:
+            for end in (link.a, link.b):
+                link_radius[index[end]] = max(link_radius[index[end]], link.radius * scale)
+    for k, spec in enumerate(template.nodes):
+        i = first + k
+        m = spec.mass * mass_scale
+        nodes.mass[i] = m
+        nodes.inv_mass[i] = 1.0 / m
+        nodes.radius[i] = spec.radius * scale if spec.radius is not None else link_radius[k]
+        d = damping or spec.damping or template.damping
+        nodes.damp_air[i], nodes.damp_ground[i] = d.air, d.ground
+        flags = 0
+        if spec.locked:
+            flags |= NODE_LOCKED
+        if spec.lock_on_contact:
+            flags |= NODE_LOCK_ON_CONTACT
+        if spec.sphere:
+            flags |= NODE_SPHERE
+        nodes.flags[i] = flags
+        if spec.muscle_to is not None:
+            nodes.damp_ref[i] = first + index[spec.muscle_to]
+            nodes.damp_rel[i] = spec.muscle_damping
+        nodes.entity[i] = esper.create_entity(Node(i, body_entity, spec.name))
+    if template.axle is not None:
+        a, b = first + index[template.axle[0]], first + index[template.axle[1]]
+        axis = nodes.pos[b] - nodes.pos[a]
+        axis /= np.linalg.norm(axis)
+        for k in range(len(template.nodes)):
+            i = first + k
+            if i in (a, b) or template.nodes[k].locked:
+                continue
+            offset = nodes.pos[i] - nodes.pos[a]
+            along = float(offset @ axis)
+            nodes.axle_a[i], nodes.axle_b[i] = a, b
+            nodes.axle_height[i] = along
+            nodes.axle_radius[i] = float(np.linalg.norm(offset - along * axis))
+
+    # -- links
+    links = state.links
+    lrows = links.allocate(len(template.links))
+    for k, spec in enumerate(template.links):
+        j = lrows.start + k
+        ia, ib = first + index[spec.a], first + index[spec.b]
+        links.a[j], links.b[j] = ia, ib
+        if spec.length is not None:
+            links.rest[j] = spec.length * scale
+        else:
+            links.rest[j] = float(np.linalg.norm(nodes.pos[ia] - nodes.pos[ib]))
+        links.radius[j] = spec.radius * scale
+        links.flags[j] = (LINK_VISIBLE if spec.visible else 0) | (LINK_COLLIDE if spec.collide else 0)
+        links.body[j] = body
+        links.color[j] = spec.color if spec.color is not None else body_color
+        links.entity[j] = esper.create_entity(Link(j, body_entity, f"{spec.a}-{spec.b}"))
+
+    # -- joint limits
+    limits = state.limits
+    mrows = limits.allocate(len(template.limits))
+    for k, spec in enumerate(template.limits):
+        j = mrows.start + k
+        limits.root[j] = first + index[spec.root]
+        limits.mid[j] = first + index[spec.mid]
+        limits.tip[j] = first + index[spec.tip]
+        limits.frame[j] = [first + index[f] for f in spec.frame]
+        limits.side[j] = spec.side
+        limits.ref[j] = spec.ref
+        limits.arc_min[j], limits.arc_max[j] = spec.arc
+        limits.body[j] = body
+
+    components = [
+        Name(name),
+        Body(
+            template=template.name,
+            index=body,
+            node_start=first,
+            node_names=template.node_names,
+            link_start=lrows.start,
+            link_count=len(template.links),
+            height=height,
+        ),
+    ]
+    if sensor is not None:
+        components.append(sensor)
+    for component in components:
+        esper.add_component(body_entity, component)
+    state.colliders_dirty = True  # rebuilt once before the next step, not per spawn
+    return body_entity

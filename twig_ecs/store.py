@@ -1,0 +1,307 @@
+"""The structure-of-arrays physics store: every hot number of every node and link.
+
+Nodes, links, joint limits, colliders and bodies each live in a block of numpy arrays
+with one row per item. Components hold row indices into these arrays; the numba
+kernels in ``twig_ecs.systems`` loop over them directly. Capacity grows by doubling;
+removing a body compacts the rows and returns an index remap so components can follow.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# Node flags (bit masks in PhysicsState.node_flags).
+NODE_LOCKED = 1  # held at node_lock_pos (static friction, fixed pivots)
+NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
+NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
+NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
+
+# Link flags (bit masks in PhysicsState.link_flags).
+LINK_VISIBLE = 1  # drawn by the renderer
+LINK_COLLIDE = 2  # collides as a capsule of link_radius
+LINK_GRAB = 4  # a grab joint: zero-length link created at run time
+
+#: Array names of each block, with (dtype, trailing shape, fill value for new rows).
+NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "pos": (np.float64, (3,), 0.0),
+    "prev": (np.float64, (3,), 0.0),
+    "acc": (np.float64, (3,), 0.0),  # accumulated acceleration for the next step (m/s^2)
+    "vel": (np.float64, (3,), 0.0),  # displacement of the last step (m), scratch of integrate
+    "lock_pos": (np.float64, (3,), 0.0),
+    "inv_mass": (np.float64, (), 0.0),
+    "mass": (np.float64, (), 0.0),
+    "radius": (np.float64, (), 0.0),  # contact radius against the ground and as a sphere
+    "damp_air": (np.float64, (), 0.0),  # d of SPEC 2 when not touching a support
+    "damp_ground": (np.float64, (), 0.0),  # d of SPEC 2 while touching a support
+    "damp_ref": (np.int32, (), -1),  # node this one is damped relative to ("muscle"), or -1
+    "damp_rel": (np.float64, (), 0.0),  # fraction of relative velocity removed per step
+    "axle_a": (np.int32, (), -1),  # fixed axle (two locked nodes) this node spins about
+    "axle_b": (np.int32, (), -1),
+    "axle_radius": (np.float64, (), 0.0),  # distance from the axle line, kept constant
+    "axle_height": (np.float64, (), 0.0),  # coordinate along the axle, kept constant
+    "flags": (np.uint32, (), 0),
+    "body": (np.int32, (), -1),
+    "entity": (np.int64, (), -1),  # esper entity of this node
+    "color": (np.float32, (4,), 1.0),
+}
+
+LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "a": (np.int32, (), -1),
+    "b": (np.int32, (), -1),
+    "rest": (np.float64, (), 0.0),
+    "radius": (np.float64, (), 0.0),
+    "flags": (np.uint32, (), 0),
+    "body": (np.int32, (), -1),
+    "entity": (np.int64, (), -1),  # esper entity of this link (or grab joint)
+    "color": (np.float32, (4,), 1.0),
+}
+
+#: Hinge limits (knees, elbows): ``mid`` may only bend away from the ``root``-``tip`` line
+#: in directions within [arc_min, arc_max] (radians) around a reference direction built
+#: from the body frame given by four nodes (left, right, low, up):
+#: 0 = ref[0] * forward + ref[1] * up, +pi/2 = outward (towards ``side``, +1 left).
+LIMIT_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "root": (np.int32, (), -1),
+    "mid": (np.int32, (), -1),
+    "tip": (np.int32, (), -1),
+    "frame": (np.int32, (4,), -1),
+    "side": (np.float64, (), 1.0),
+    "ref": (np.float64, (2,), 0.0),  # 0-direction = ref[0] * forward + ref[1] * up
+    "arc_min": (np.float64, (), 0.0),
+    "arc_max": (np.float64, (), 0.0),
+    "body": (np.int32, (), -1),
+}
+
+#: Colliders are derived from links (capsules) and sphere nodes; rebuilt on every spawn.
+COLLIDER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "a": (np.int32, (), -1),
+    "b": (np.int32, (), -1),  # == a for a sphere
+    "radius": (np.float64, (), 0.0),
+    "link": (np.int32, (), -1),  # source link, or -1 for a sphere node
+    "body": (np.int32, (), -1),
+    "local": (np.int32, (), 0),  # index among its body's colliders (0..63)
+    "mask": (np.uint64, (), 0),  # bit k set: never collide with local collider k of own body
+    # Tactile sensing written by the collide kernel each step (SPEC 2):
+    "hit_energy": (np.float64, (), 0.0),  # largest impact kinetic energy this step (J)
+    "hit_by": (np.int32, (), -1),  # collider that delivered it
+}
+
+BODY_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "pain": (np.float64, (), 0.0),  # current pain level (J-equivalent), decays
+    "pain_threshold": (np.float64, (), np.inf),  # impact energy (J) that hurts; inf = no sensor
+    "pain_half_life": (np.float64, (), 1.0),  # seconds
+    "pain_gain": (np.float64, (), 1.0),
+    "alive": (np.uint8, (), 0),
+    "entity": (np.int64, (), -1),  # esper entity carrying the Body component
+    "self_collide": (np.uint8, (), 1),  # may its own non-adjacent links collide?
+}
+
+
+@dataclass
+class Block:
+    """Rows of equally long numpy arrays, grown by doubling.
+
+    ``count`` rows are in use; arrays are longer (capacity). Access arrays as
+    attributes (``block.pos``) and slice ``[:count]`` for the live part.
+    """
+
+    fields: dict[str, tuple[type, tuple[int, ...], float]]
+    count: int = 0
+    arrays: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name, (dtype, shape, fill) in self.fields.items():
+            self.arrays[name] = np.full((4, *shape), fill, dtype=dtype)
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        try:
+            return self.__dict__["arrays"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    @property
+    def capacity(self) -> int:
+        """Rows allocated."""
+        return len(next(iter(self.arrays.values())))
+
+    def allocate(self, n: int) -> slice:
+        """Reserve ``n`` new rows filled with defaults; return their slice."""
+        start, stop = self.count, self.count + n
+        if stop > self.capacity:
+            new_cap = self.capacity
+            while new_cap < stop:
+                new_cap *= 2
+            for name, (dtype, shape, fill) in self.fields.items():
+                grown = np.full((new_cap, *shape), fill, dtype=dtype)
+                grown[: self.count] = self.arrays[name][: self.count]
+                self.arrays[name] = grown
+        for name, (_dtype, _shape, fill) in self.fields.items():
+            self.arrays[name][start:stop] = fill
+        self.count = stop
+        return slice(start, stop)
+
+    def keep(self, mask: np.ndarray) -> np.ndarray:
+        """Drop rows where ``mask`` is False, compacting in place.
+
+        Returns the remap array: ``remap[old] = new`` index, or -1 for dropped rows.
+        """
+        assert len(mask) == self.count
+        remap = np.full(self.count, -1, dtype=np.int32)
+        kept = np.flatnonzero(mask)
+        remap[kept] = np.arange(len(kept), dtype=np.int32)
+        for name, (_dtype, _shape, fill) in self.fields.items():
+            arr = self.arrays[name]
+            arr[: len(kept)] = arr[kept]
+            arr[len(kept) : self.count] = fill
+        self.count = len(kept)
+        return remap
+
+    def clear(self) -> None:
+        """Drop every row."""
+        self.keep(np.zeros(self.count, dtype=bool))
+
+
+def _remap(indices: np.ndarray, remap: np.ndarray) -> None:
+    """Rewrite an index array in place through ``remap`` (negative entries stay)."""
+    valid = indices >= 0
+    indices[valid] = remap[indices[valid]]
+
+
+class PhysicsState:
+    """All node, link, limit, collider and body data of one scene, as arrays.
+
+    The arrays are public and read directly by kernels and the renderer:
+    ``state.nodes.pos[:state.nodes.count]`` are node positions (m), and so on.
+    ``version`` increases whenever rows are added or removed, so caches of indices
+    (renderer buffers, per-character index tables) know to refresh.
+    """
+
+    def __init__(self) -> None:
+        self.nodes = Block(NODE_FIELDS)
+        self.links = Block(LINK_FIELDS)
+        self.limits = Block(LIMIT_FIELDS)
+        self.colliders = Block(COLLIDER_FIELDS)
+        self.bodies = Block(BODY_FIELDS)
+        self.version = 0
+        #: Set when bodies spawn; the scene rebuilds the collider table before stepping.
+        self.colliders_dirty = False
+        self.n_pairs = 0
+        #: Broad-phase output (candidate collider pairs), reused between steps.
+        self.pairs = np.zeros((64, 2), dtype=np.int32)
+        #: Per-step statistics written by the kernels: [max residual penetration (m)].
+        self.stats = np.zeros(4, dtype=np.float64)
+
+    # -- growth -----------------------------------------------------------------
+
+    def add_body(self) -> int:
+        """Reserve a body row and return its index."""
+        row = self.bodies.allocate(1).start
+        self.bodies.alive[row] = 1
+        self.version += 1
+        return row
+
+    def remove_body(self, body: int) -> dict[str, np.ndarray]:
+        """Remove a body with its nodes, links and limits; compact all blocks.
+
+        Returns remaps by block name (``"nodes"``, ``"links"``, ``"bodies"``) so
+        components holding indices can follow (``remap[old] = new`` or -1).
+        """
+        n, lk, lim = self.nodes, self.links, self.limits
+        node_keep = n.body[: n.count] != body
+        # A grab joint touching any removed node goes too.
+        link_keep = lk.body[: lk.count] != body
+        link_keep &= node_keep[lk.a[: lk.count]] & node_keep[lk.b[: lk.count]]
+        limit_keep = lim.body[: lim.count] != body
+        body_keep = np.ones(self.bodies.count, dtype=bool)
+        body_keep[body] = False
+
+        node_map = n.keep(node_keep)
+        link_map = lk.keep(link_keep)
+        lim.keep(limit_keep)
+        body_map = self.bodies.keep(body_keep)
+
+        _remap(n.damp_ref[: n.count], node_map)
+        _remap(n.axle_a[: n.count], node_map)
+        _remap(n.axle_b[: n.count], node_map)
+        _remap(n.body[: n.count], body_map)
+        _remap(lk.a[: lk.count], node_map)
+        _remap(lk.b[: lk.count], node_map)
+        _remap(lk.body[: lk.count], body_map)
+        for name in ("root", "mid", "tip"):
+            _remap(lim.arrays[name][: lim.count], node_map)
+        _remap(lim.frame[: lim.count].reshape(-1), node_map)
+        _remap(lim.body[: lim.count], body_map)
+        self.rebuild_colliders()
+        self.version += 1
+        return {"nodes": node_map, "links": link_map, "bodies": body_map}
+
+    # -- colliders ----------------------------------------------------------------
+
+    def rebuild_colliders(self) -> None:
+        """Derive the collider table from collidable links and sphere nodes.
+
+        Within one body, two colliders never touch when they share a node or when a
+        node of one is linked to a node of the other (neighbours through any link,
+        stiffeners included): such pairs are joints, not contacts. Bodies whose
+        ``self_collide`` is 0 never collide with themselves at all.
+        """
+        self.colliders_dirty = False
+        n, lk, col = self.nodes, self.links, self.colliders
+        col.clear()
+        link_rows = np.flatnonzero(lk.flags[: lk.count] & LINK_COLLIDE)
+        node_rows = np.flatnonzero(n.flags[: n.count] & NODE_SPHERE)
+        total = len(link_rows) + len(node_rows)
+        rows = col.allocate(total)
+        col.a[rows] = np.concatenate([lk.a[link_rows], node_rows]).astype(np.int32)
+        col.b[rows] = np.concatenate([lk.b[link_rows], node_rows]).astype(np.int32)
+        col.radius[rows] = np.concatenate([lk.radius[link_rows], n.radius[node_rows]])
+        col.link[rows] = np.concatenate([link_rows, np.full(len(node_rows), -1)]).astype(np.int32)
+        col.body[rows] = np.concatenate([lk.body[link_rows], n.body[node_rows]]).astype(np.int32)
+
+        # Neighbour sets from every non-grab link, for the self-collision masks.
+        neighbours: dict[int, set[int]] = {}
+        for a, b, f in zip(lk.a[: lk.count], lk.b[: lk.count], lk.flags[: lk.count], strict=True):
+            if f & LINK_GRAB:
+                continue
+            neighbours.setdefault(int(a), {int(a)}).add(int(b))
+            neighbours.setdefault(int(b), {int(b)}).add(int(a))
+        by_body: dict[int, list[int]] = {}
+        for i in range(total):
+            by_body.setdefault(int(col.body[i]), []).append(i)
+        all_bits = np.uint64(0xFFFFFFFFFFFFFFFF)
+        for body, members in by_body.items():
+            allow_self = bool(self.bodies.self_collide[body]) and len(members) <= 64
+            for k, i in enumerate(members):
+                col.local[i] = min(k, 63)
+                if not allow_self:
+                    col.mask[i] = all_bits
+                    continue
+                near_i = neighbours.get(int(col.a[i]), {int(col.a[i])}) | neighbours.get(
+                    int(col.b[i]), {int(col.b[i])}
+                )
+                mask = 0
+                for kk, j in enumerate(members):
+                    if kk == k or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
+                        mask |= 1 << kk
+                col.mask[i] = np.uint64(mask)
+        self.version += 1
+
+    # -- read-outs ------------------------------------------------------------------
+
+    def link_errors(self) -> np.ndarray:
+        """Relative length error |len - rest| / rest of every non-grab link with rest > 0."""
+        lk, pos = self.links, self.nodes.pos
+        sel = (lk.rest[: lk.count] > 0) & ((lk.flags[: lk.count] & LINK_GRAB) == 0)
+        a, b = lk.a[: lk.count][sel], lk.b[: lk.count][sel]
+        length = np.linalg.norm(pos[a] - pos[b], axis=1)
+        return np.abs(length - lk.rest[: lk.count][sel]) / lk.rest[: lk.count][sel]
+
+    def momentum(self, nodes: np.ndarray | slice | None = None, dt: float = 1.0) -> np.ndarray:
+        """Total linear momentum (kg m/s) of the given free nodes (default: all)."""
+        n = self.nodes
+        sel = slice(0, n.count) if nodes is None else nodes
+        free = n.inv_mass[sel] > 0
+        vel = (n.pos[sel] - n.prev[sel]) / dt
+        return (n.mass[sel][free, None] * vel[free]).sum(axis=0)

@@ -1,0 +1,184 @@
+"""Small typed readers for YAML documents that fail with file:line and a path.
+
+Each reader takes the containing mapping or list, the key or index, and the path of
+that value inside the document (``entities[2].body``), and either returns a clean
+Python value or raises :class:`~twig_ecs.errors.SceneError` naming what was expected.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Callable, Iterable
+from typing import Any, NoReturn
+
+from twig_ecs.errors import SceneError
+from twig_ecs.yamldoc import YDict, YList
+
+MISSING: Any = object()
+
+
+def fail(container: Any, key: Any, path: str, message: str) -> NoReturn:
+    """Raise a SceneError located at ``container[key]``."""
+    if isinstance(container, (YDict, YList)):
+        file, line = container.where(key)
+    else:
+        file, line = None, None
+    raise SceneError(message, file, line, path)
+
+
+def suggest(name: str, known: Iterable[str]) -> str:
+    """' (did you mean 'x'?)' or ' (known: a, b, c)' for an unknown name."""
+    known = sorted(known)
+    close = difflib.get_close_matches(name, known, n=1)
+    if close:
+        return f" (did you mean '{close[0]}'?)"
+    return f" (known: {', '.join(known)})" if known else ""
+
+
+def join(path: str, key: Any) -> str:
+    """Extend a document path by a mapping key or a list index."""
+    if isinstance(key, int):
+        return f"{path}[{key}]"
+    return f"{path}.{key}" if path else str(key)
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    if len(text) > 40:
+        text = text[:37] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+# -- value kinds: each takes a raw value, returns the clean one or raises ValueError(expected)
+
+
+def number(value: Any) -> float:
+    """A finite real number (not a boolean)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError("a finite number")
+    return float(value)
+
+
+def positive(value: Any) -> float:
+    """A number > 0."""
+    if number(value) <= 0:
+        raise ValueError("a number greater than 0")
+    return float(value)
+
+
+def nonnegative(value: Any) -> float:
+    """A number >= 0."""
+    if number(value) < 0:
+        raise ValueError("a number of at least 0")
+    return float(value)
+
+
+def fraction(value: Any) -> float:
+    """A number in [0, 1]."""
+    if not 0 <= number(value) <= 1:
+        raise ValueError("a number from 0 to 1")
+    return float(value)
+
+
+def integer(lo: int, hi: int) -> Callable[[Any], int]:
+    """An integer in [lo, hi]."""
+
+    def read(value: Any) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+            raise ValueError(f"a whole number from {lo} to {hi}")
+        return value
+
+    return read
+
+
+def text(value: Any) -> str:
+    """A non-empty string."""
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError("a non-empty string")
+    return value
+
+
+def boolean(value: Any) -> bool:
+    """true or false."""
+    if not isinstance(value, bool):
+        raise ValueError("true or false")
+    return value
+
+
+def vec3(value: Any) -> tuple[float, float, float]:
+    """A list of three numbers [x, y, z]."""
+    if not isinstance(value, list) or len(value) != 3:
+        raise ValueError("a list of three numbers [x, y, z]")
+    return tuple(number(v) for v in value)  # type: ignore[return-value]
+
+
+def color(value: Any) -> tuple[float, float, float, float]:
+    """An RGB(A) colour: [r, g, b] or [r, g, b, a] in 0..1, or '#rrggbb'."""
+    if isinstance(value, str) and len(value) == 7 and value.startswith("#"):
+        try:
+            return tuple(int(value[i : i + 2], 16) / 255 for i in (1, 3, 5)) + (1.0,)  # type: ignore[return-value]
+        except ValueError:
+            pass
+    if isinstance(value, list) and len(value) in (3, 4):
+        try:
+            rgba = [fraction(v) for v in value]
+        except ValueError:
+            pass
+        else:
+            return tuple(rgba + [1.0] * (4 - len(rgba)))  # type: ignore[return-value]
+    raise ValueError("a colour: [r, g, b] with numbers from 0 to 1, or '#rrggbb'")
+
+
+def mapping(value: Any) -> YDict:
+    """A mapping (key: value lines)."""
+    if not isinstance(value, dict):
+        raise ValueError("a mapping of keys to values")
+    return value  # type: ignore[return-value]
+
+
+def sequence(value: Any) -> YList:
+    """A list."""
+    if not isinstance(value, list):
+        raise ValueError("a list")
+    return value  # type: ignore[return-value]
+
+
+def names(count: int) -> Callable[[Any], tuple[str, ...]]:
+    """A list of exactly ``count`` names."""
+
+    def read(value: Any) -> tuple[str, ...]:
+        if not isinstance(value, list) or len(value) != count:
+            raise ValueError(f"a list of {count} node names")
+        return tuple(text(v) for v in value)
+
+    return read
+
+
+# -- readers that know where they are
+
+
+def read(container: Any, key: Any, path: str, kind: Callable[[Any], Any], default: Any = MISSING) -> Any:
+    """Read ``container[key]`` as ``kind``; a missing key takes ``default`` or fails."""
+    here = join(path, key)
+    if isinstance(container, dict):
+        present = key in container
+    else:
+        present = 0 <= key < len(container)
+    if not present:
+        if default is MISSING:
+            fail(container, None, here, "missing required key")
+        return default
+    value = container[key]
+    try:
+        return kind(value)
+    except ValueError as exc:
+        fail(container, key, here, f"expected {exc}, got {_describe(value)}")
+
+
+def check_keys(doc: YDict, path: str, allowed: Iterable[str], what: str = "key") -> None:
+    """Fail on the first key of ``doc`` that is not ``allowed``."""
+    allowed = list(allowed)
+    for key in doc:
+        if key not in allowed:
+            fail(doc, key, join(path, key), f"unknown {what} '{key}'" + suggest(str(key), allowed))

@@ -1,0 +1,102 @@
+"""YAML documents that remember where each value came from (file and line).
+
+``parse_yaml`` returns plain-looking dicts and lists (:class:`YDict`, :class:`YList`)
+that also carry the file name and the line of every key and item, so validation
+errors can say ``scene.yaml:12: entities[2].body: ...``. Duplicate keys are errors.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+from twig_ecs.errors import SceneError
+
+
+class YDict(dict):
+    """A mapping from YAML with the source (file, line) of each key."""
+
+    file: str = "<string>"
+    line: int = 0
+    key_lines: dict
+
+    def where(self, key: Any = None) -> tuple[str, int]:
+        """(file, 1-based line) where ``key`` stands, or where the mapping starts."""
+        return getattr(self, "key_lines", {}).get(key, (self.file, self.line))
+
+
+class YList(list):
+    """A sequence from YAML with the source line of each item."""
+
+    file: str = "<string>"
+    line: int = 0
+    item_lines: list
+
+    def where(self, index: int | None = None) -> tuple[str, int]:
+        """(file, 1-based line) of item ``index``, or where the sequence starts."""
+        lines = getattr(self, "item_lines", [])
+        if index is not None and 0 <= index < len(lines):
+            return self.file, lines[index]
+        return self.file, self.line
+
+
+def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor) -> Any:
+    line = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        out = YDict()
+        out.file, out.line, out.key_lines = file, line, {}
+        for key_node, value_node in node.value:
+            key = _convert(key_node, file, constructor)
+            if isinstance(key, (YDict, YList)):
+                raise SceneError("mapping keys must be plain values", file, key_node.start_mark.line + 1)
+            if key in out:
+                raise SceneError(f"duplicate key '{key}'", file, key_node.start_mark.line + 1)
+            out[key] = _convert(value_node, file, constructor)
+            out.key_lines[key] = (file, key_node.start_mark.line + 1)
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        out = YList()
+        out.file, out.line = file, line
+        out.item_lines = [item.start_mark.line + 1 for item in node.value]
+        out.extend(_convert(item, file, constructor) for item in node.value)
+        return out
+    return constructor.construct_object(node, deep=True)
+
+
+def parse_yaml(text: str, file: str = "<string>") -> Any:
+    """Parse one YAML document into YDict/YList/scalars; syntax errors become SceneError."""
+    try:
+        loader = yaml.SafeLoader(text)
+        try:
+            root = loader.get_single_node()
+            if root is None:
+                return None
+            return _convert(root, file, loader)
+        finally:
+            loader.dispose()
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark else None
+        problem = exc.problem or exc.context or "invalid YAML"
+        raise SceneError(f"invalid YAML: {problem}", file, line) from None
+    except yaml.YAMLError as exc:
+        raise SceneError(f"invalid YAML: {exc}", file) from None
+
+
+def merge(base: Any, override: Any) -> Any:
+    """Deep-merge two YAML values: mappings merge key by key, anything else replaces.
+
+    Line information follows each value to the document it came from.
+    """
+    if isinstance(base, YDict) and isinstance(override, YDict):
+        out = YDict()
+        out.file, out.line, out.key_lines = override.file, override.line, {}
+        for key, value in base.items():
+            out[key] = value
+            out.key_lines[key] = base.where(key)
+        for key, value in override.items():
+            out[key] = merge(out[key], value) if key in out else value
+            out.key_lines[key] = override.where(key)
+        return out
+    return override
