@@ -238,7 +238,10 @@ def resolve_contacts(
                 if energy > hit_energy[j]:
                     hit_energy[j] = energy
                     hit_by[j] = i
-        lam = depth / w
+        # resolve at most half the thinner radius per pass: a limb found deep inside
+        # another (fast motion, crossed segments with an unreliable normal) is eased
+        # out over a few passes instead of being flung out in one
+        lam = min(depth, 0.5 * min(col_r[i], col_r[j])) / w
         fa = lam * sa * wa
         fb = lam * s * wb
         fc = lam * tc * wc
@@ -271,7 +274,7 @@ def solve_collisions(
 ):
     """Relaxation rounds of contacts then all other constraints (``cargs``: see
     :func:`~twig_ecs.systems.constrain.constraint_args`); returns the residual penetration."""
-    pos, inv_mass, flags = cargs[0], cargs[1], cargs[2]
+    pos, inv_mass, flags = cargs[0], cargs[1], cargs[3]
     for c in range(n_col):
         hit_energy[c] = 0.0
         hit_by[c] = -1

@@ -17,12 +17,15 @@ from twig_ecs.system import System
 
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
+#: Largest rotation (rad) one relaxation pass applies to a joint outside its limit.
+MAX_LIMIT_TURN = 0.35
 
 
 @njit(cache=True, inline="always")
 def node_weight(inv_mass, flags, i):
     """Inverse mass of node i as constraints see it (0 while locked)."""
-    if flags[i] & NODE_LOCKED:
+    f = flags[i]
+    if f & NODE_LOCKED:
         return 0.0
     return inv_mass[i]
 
@@ -63,13 +66,14 @@ def _wrap(angle):
 
 
 @njit(cache=True)
-def project_limits(pos, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, count):
+def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, first, span,
+                   n_limits):  # fmt: skip
     """One pass over hinge limits (knees, elbows).
 
     The mid node is rotated about the root-tip line into the allowed arc, which keeps
-    both link lengths; root and tip take the mass-weighted reaction.
+    both link lengths.
     """
-    for k in range(count):
+    for k in range(n_limits):
         r = root[k]
         m = mid[k]
         t = tip[k]
@@ -131,31 +135,36 @@ def project_limits(pos, inv_mass, flags, root, mid, tip, frame, side, ref, arc_m
         phi = math.atan2(px * sx + py * sy + pz * sz, px * rx + py * ry + pz * rz)
         if arc_min[k] <= phi <= arc_max[k]:
             continue
-        if abs(_wrap(phi - arc_min[k])) < abs(_wrap(phi - arc_max[k])):
-            phi = arc_min[k]
-        else:
-            phi = arc_max[k]
+        # rotate towards the nearer end of the arc, at most MAX_LIMIT_TURN per pass: a
+        # knee found reversed is walked back over a few passes instead of jumping,
+        # which would fling the hip and foot (they take the reaction)
+        to_min = _wrap(arc_min[k] - phi)
+        to_max = _wrap(arc_max[k] - phi)
+        turn = to_min if abs(to_min) < abs(to_max) else to_max
+        turn = max(-MAX_LIMIT_TURN, min(MAX_LIMIT_TURN, turn))
+        phi += turn
         c = math.cos(phi) * plen
         s = math.sin(phi) * plen
         dx = c * rx + s * sx - px
         dy = c * ry + s * sy - py
         dz = c * rz + s * sz - pz
-        wm = node_weight(inv_mass, flags, m)
-        wr = node_weight(inv_mass, flags, r)
-        wt = node_weight(inv_mass, flags, t)
-        we = wr * wt / (wr + wt) if wr > 0.0 and wt > 0.0 else 0.0
-        w = wm + we
-        if w == 0.0:
+        if flags[m] & NODE_LOCKED:
             continue
-        fm = wm / w
-        fe = we / w
-        pos[m, 0] += fm * dx
-        pos[m, 1] += fm * dy
-        pos[m, 2] += fm * dz
-        for e in (r, t):
-            pos[e, 0] -= fe * dx
-            pos[e, 1] -= fe * dy
-            pos[e, 2] -= fe * dz
+        # The mid node turns onto the limit; the whole body takes the reaction as one
+        # small uniform shift (which keeps every link length) so momentum is kept.
+        total = 0.0
+        for j in range(first[k], first[k] + span[k]):
+            if not flags[j] & NODE_LOCKED:
+                total += mass[j]
+        share = mass[m] / total
+        pos[m, 0] += dx
+        pos[m, 1] += dy
+        pos[m, 2] += dz
+        for j in range(first[k], first[k] + span[k]):
+            if not flags[j] & NODE_LOCKED:
+                pos[j, 0] -= share * dx
+                pos[j, 1] -= share * dy
+                pos[j, 2] -= share * dz
 
 
 @njit(cache=True)
@@ -209,37 +218,19 @@ def project_ground(pos, radius, flags, lock_pos, count):
             flags[i] = f
 
 
+# fmt: off
 @njit(cache=True)
-def relax_once(
-    pos,
-    inv_mass,
-    flags,
-    radius,
-    lock_pos,
-    n_nodes,
-    la,
-    lb,
-    rest,
-    n_links,
-    root,
-    mid,
-    tip,
-    frame,
-    side,
-    ref,
-    arc_min,
-    arc_max,
-    n_limits,
-    axle_a,
-    axle_b,
-    axle_radius,
-    axle_height,
-):
-    """One relaxation pass: links (and grab joints), limits, axles, then the ground."""
-    project_links(pos, inv_mass, flags, la, lb, rest, n_links)
-    project_limits(pos, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, n_limits)
+def relax_once(pos, inv_mass, mass, flags, radius, lock_pos, n_nodes,
+               la, lb, rest, n_links,
+               root, mid, tip, frame, side, ref, arc_min, arc_max, first, span, n_limits,
+               axle_a, axle_b, axle_radius, axle_height):
+    """One relaxation pass: limits, axles, the ground, then links (and grab joints)."""
+    # links last: they are the constraints we most want exact after a pass
+    project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
+                   first, span, n_limits)
     project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
     project_ground(pos, radius, flags, lock_pos, n_nodes)
+    project_links(pos, inv_mass, flags, la, lb, rest, n_links)
 
 
 @njit(cache=True)
@@ -252,31 +243,12 @@ def solve_constraints(iterations, *cargs):
 def constraint_args(state) -> tuple:
     """The store arrays :func:`relax_once` takes, in order."""
     n, lk, lim = state.nodes, state.links, state.limits
-    return (
-        n.pos,
-        n.inv_mass,
-        n.flags,
-        n.radius,
-        n.lock_pos,
-        n.count,
-        lk.a,
-        lk.b,
-        lk.rest,
-        lk.count,
-        lim.root,
-        lim.mid,
-        lim.tip,
-        lim.frame,
-        lim.side,
-        lim.ref,
-        lim.arc_min,
-        lim.arc_max,
-        lim.count,
-        n.axle_a,
-        n.axle_b,
-        n.axle_radius,
-        n.axle_height,
-    )
+    return (n.pos, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
+            lk.a, lk.b, lk.rest, lk.count,
+            lim.root, lim.mid, lim.tip, lim.frame, lim.side, lim.ref, lim.arc_min, lim.arc_max,
+            lim.first, lim.span, lim.count,
+            n.axle_a, n.axle_b, n.axle_radius, n.axle_height)
+# fmt: on
 
 
 class ConstrainSystem(System):

@@ -48,7 +48,7 @@ class Settings:
     """World-wide simulation settings (``settings:`` in a scene)."""
 
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, -9.81, 0.0]))
-    iterations: int = 4  # relaxation passes per step, for constraints and for contacts
+    iterations: int = 8  # relaxation passes per step, for constraints and for contacts
     contact_energy: float = 0.05  # J: impacts at least this strong become Contact events
 
 

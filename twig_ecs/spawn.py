@@ -11,6 +11,7 @@ import numpy as np
 from twig_ecs.components import Body, Link, Name, Node, PainSensor
 from twig_ecs.store import (
     LINK_COLLIDE,
+    LINK_NO_SELF,
     LINK_VISIBLE,
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
@@ -130,7 +131,11 @@ def spawn_body(
         else:
             links.rest[j] = float(np.linalg.norm(nodes.pos[ia] - nodes.pos[ib]))
         links.radius[j] = spec.radius * scale
-        links.flags[j] = (LINK_VISIBLE if spec.visible else 0) | (LINK_COLLIDE if spec.collide else 0)
+        links.flags[j] = (
+            (LINK_VISIBLE if spec.visible else 0)
+            | (LINK_COLLIDE if spec.collide else 0)
+            | (0 if spec.self_collide else LINK_NO_SELF)
+        )
         links.body[j] = body
         links.color[j] = spec.color if spec.color is not None else body_color
         links.entity[j] = esper.create_entity(Link(j, body_entity, f"{spec.a}-{spec.b}"))
@@ -148,6 +153,7 @@ def spawn_body(
         limits.ref[j] = spec.ref
         limits.arc_min[j], limits.arc_max[j] = spec.arc
         limits.body[j] = body
+        limits.first[j], limits.span[j] = first, len(template.nodes)
 
     components = [
         Name(name),

@@ -22,6 +22,7 @@ NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
 LINK_VISIBLE = 1  # drawn by the renderer
 LINK_COLLIDE = 2  # collides as a capsule of link_radius
 LINK_GRAB = 4  # a grab joint: zero-length link created at run time
+LINK_NO_SELF = 8  # never collides with its own body (torso parts that touch by design)
 
 #: Array names of each block, with (dtype, trailing shape, fill value for new rows).
 NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
@@ -71,6 +72,8 @@ LIMIT_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "ref": (np.float64, (2,), 0.0),  # 0-direction = ref[0] * forward + ref[1] * up
     "arc_min": (np.float64, (), 0.0),
     "arc_max": (np.float64, (), 0.0),
+    "first": (np.int32, (), -1),  # the body's node rows [first, first + span) share the
+    "span": (np.int32, (), 0),  # reaction, so the correction keeps the total momentum
     "body": (np.int32, (), -1),
 }
 
@@ -112,6 +115,7 @@ class Block:
     arrays: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        assert not {"count", "arrays", "fields"} & self.fields.keys(), "reserved field name"
         for name, (dtype, shape, fill) in self.fields.items():
             self.arrays[name] = np.full((4, *shape), fill, dtype=dtype)
 
@@ -229,7 +233,7 @@ class PhysicsState:
         _remap(lk.a[: lk.count], node_map)
         _remap(lk.b[: lk.count], node_map)
         _remap(lk.body[: lk.count], body_map)
-        for name in ("root", "mid", "tip"):
+        for name in ("root", "mid", "tip", "first"):
             _remap(lim.arrays[name][: lim.count], node_map)
         _remap(lim.frame[: lim.count].reshape(-1), node_map)
         _remap(lim.body[: lim.count], body_map)
@@ -261,6 +265,9 @@ class PhysicsState:
         col.body[rows] = np.concatenate([lk.body[link_rows], n.body[node_rows]]).astype(np.int32)
 
         # Neighbour sets from every non-grab link, for the self-collision masks.
+        loner = np.zeros(total, dtype=bool)  # never collides with its own body
+        loner[: len(link_rows)] = (lk.flags[link_rows] & LINK_NO_SELF) != 0
+        # Neighbour sets from every non-grab link, for the self-collision masks.
         neighbours: dict[int, set[int]] = {}
         for a, b, f in zip(lk.a[: lk.count], lk.b[: lk.count], lk.flags[: lk.count], strict=True):
             if f & LINK_GRAB:
@@ -275,7 +282,7 @@ class PhysicsState:
             allow_self = bool(self.bodies.self_collide[body]) and len(members) <= 64
             for k, i in enumerate(members):
                 col.local[i] = min(k, 63)
-                if not allow_self:
+                if not allow_self or loner[i]:
                     col.mask[i] = all_bits
                     continue
                 near_i = neighbours.get(int(col.a[i]), {int(col.a[i])}) | neighbours.get(
@@ -283,7 +290,7 @@ class PhysicsState:
                 )
                 mask = 0
                 for kk, j in enumerate(members):
-                    if kk == k or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
+                    if kk == k or loner[j] or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
         self.version += 1

@@ -49,7 +49,7 @@ TEMPLATE_KEYS = (
     "color",
 )
 NODE_KEYS = ("at", "mass", "radius", "locked", "lock_on_contact", "sphere", "damping", "muscle")
-LINK_KEYS = ("nodes", "radius", "visible", "collide", "length", "color")
+LINK_KEYS = ("nodes", "radius", "visible", "collide", "self_collide", "length", "color")
 LIMIT_KEYS = ("hinge", "frame", "side", "ref", "arc")
 DAMPING_KEYS = ("air", "ground")
 PAIN_KEYS = ("threshold", "half_life", "gain")
@@ -89,6 +89,7 @@ class LinkSpec:
     radius: float
     visible: bool
     collide: bool
+    self_collide: bool  # may it collide with other links of its own body?
     length: float | None  # None: the distance between the nodes' ``at``
     color: tuple[float, float, float, float] | None
 
@@ -246,7 +247,9 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
                 join(here, "nodes"),
                 f"nodes '{a}' and '{b}' are at the same place: give the link a length",
             )
-        links.append(LinkSpec(a, b, radius, visible, collide, length, read(spec, "color", here, color, None)))
+        self_collide = read(spec, "self_collide", here, boolean, True)
+        link_color = read(spec, "color", here, color, None)
+        links.append(LinkSpec(a, b, radius, visible, collide, self_collide, length, link_color))
 
     limits = []
     raw_limits = read(doc, "joint_limits", path, sequence, [])

@@ -1,0 +1,129 @@
+"""The ``twig`` command line: validate, run, and (from twig_ecs.graphics) play and render."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+from twig_ecs.errors import TwigError
+
+
+def _add_scene_args(p: argparse.ArgumentParser, scene_default: str | None = None) -> None:
+    """The arguments every scene-running command shares: SCENE, --seed, --content."""
+    if scene_default is None:
+        p.add_argument("scene", help="a scene .yaml file or a built-in name (schoolyard, empty)")
+    else:
+        p.add_argument("scene", nargs="?", default=scene_default,
+                       help=f"a scene .yaml file or a built-in name (default: {scene_default})")  # fmt: skip
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--content", action="append", default=[], metavar="DIR",
+                   help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+
+
+def _positive_seconds(text: str) -> float:
+    value = float(text)
+    if not 0 < value <= 86400:
+        raise argparse.ArgumentTypeError("seconds must be > 0 and at most 86400")
+    return value
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """Check scene and template files; print one line per file."""
+    from twig_ecs.library import ContentLibrary, read_document
+    from twig_ecs.scenefile import read_scene
+
+    failures = 0
+    try:
+        library = ContentLibrary(args.content)
+    except TwigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    for name in args.files:
+        try:
+            path = library.scene_path(name)
+            doc = read_document(path)
+            if "template" in doc:
+                lib = library.copy()
+                tname = str(doc["template"])
+                lib.add_template(tname, doc)
+                lib.template(tname)
+                print(f"ok: {path} (body template '{tname}')")
+            else:
+                plan = read_scene(path, library)
+                print(f"ok: {path} (scene '{plan.name}', {len(plan.entities)} entities)")
+        except TwigError as exc:
+            failures += 1
+            print(f"error: {exc}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Run a scene headless for some seconds; optionally print a JSON report."""
+    from twig_ecs.report import run_with_report
+
+    report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
+                             progress=args.report != "json" and sys.stderr.isatty())  # fmt: skip
+    if args.report == "json":
+        print(json.dumps(report, indent=2))
+    else:
+        print(f"{report['scene']}: {report['frames']} frames ({report['seconds']:.2f} s simulated), "
+              f"median step {report['step_ms']['median']:.3f} ms, "
+              f"max link error {report['max_link_error'] * 100:.2f}%, "
+              f"max penetration {report['max_penetration_m'] * 100:.2f} cm, "
+              f"nan: {str(report['nan']).lower()}, state {report['state_hash']}")  # fmt: skip
+    return 1 if report["nan"] else 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``twig``."""
+    parser = argparse.ArgumentParser(
+        prog="twig",
+        description="twig-ecs: procedural character animation with believable physical interactions.",
+    )
+    from twig_ecs import __version__
+
+    parser.add_argument("--version", action="version", version=f"twig-ecs {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("validate", help="check scene/template YAML files and report errors")
+    p.add_argument("files", nargs="+", metavar="FILE", help="scene or template files (or scene names)")
+    p.add_argument("--content", action="append", default=[], metavar="DIR",
+                   help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+    p.set_defaults(func=cmd_validate)
+
+    p = sub.add_parser("run", help="run a scene headless and report on it")
+    _add_scene_args(p)
+    p.add_argument("--seconds", type=_positive_seconds, default=10.0, help="simulated seconds (default 10)")
+    p.add_argument("--report", choices=["text", "json"], default="text", help="report format")
+    p.set_defaults(func=cmd_run)
+
+    try:
+        from twig_ecs.graphics.cli import register_commands
+    except ImportError:  # graphics not built yet in this checkout
+        pass
+    else:
+        register_commands(sub, _add_scene_args)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``twig`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.func(args) or 0)
+    except TwigError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

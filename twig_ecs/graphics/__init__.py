@@ -1,0 +1,1 @@
+"""Graphics: the moderngl renderer, the pyglet window (`twig play`) and offscreen output."""
