@@ -17,6 +17,10 @@ from twig_ecs.system import System
 
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
+#: A limb bent less than this (mid node's offset from the root-tip line, as a fraction
+#: of that line's length) counts as straight and is never corrected: the direction of
+#: so small a bend is noise, and chasing it makes resting bodies jitter and creep.
+STRAIGHT = 0.015
 #: Largest rotation (rad) one relaxation pass applies to a joint outside its limit.
 MAX_LIMIT_TURN = 0.35
 
@@ -112,8 +116,8 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
         py = vy - va * ay
         pz = vz - va * az
         plen = math.sqrt(px * px + py * py + pz * pz)
-        if plen < 1e-6:
-            continue  # straight: allowed, and no direction to judge
+        if plen < STRAIGHT * an:
+            continue  # (nearly) straight: allowed; its bend direction is only noise
         ra = rx * ax + ry * ay + rz * az
         rx -= ra * ax
         ry -= ra * ay

@@ -95,6 +95,12 @@ class BodyHandle:
         n = self.scene.state.nodes
         n.prev[i] = n.pos[i] - np.asarray(velocity, dtype=np.float64) * self.scene.dt
 
+    def apply_force(self, node: str, force: tuple[float, float, float]) -> None:
+        """Push one node with ``force`` (N) during the next step (adds force/mass to its acceleration)."""
+        i = self._row(node)
+        n = self.scene.state.nodes
+        n.acc[i] += np.asarray(force, dtype=np.float64) / n.mass[i]
+
     def set_velocity(self, velocity: tuple[float, float, float]) -> None:
         """Give every free node of the body the same velocity (m/s)."""
         n, rows = self.scene.state.nodes, self._rows()

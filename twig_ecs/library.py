@@ -13,7 +13,7 @@ from pathlib import Path
 
 from twig_ecs.errors import SceneError
 from twig_ecs.templates import BodyTemplate, compile_template
-from twig_ecs.validate import fail, read, suggest, text
+from twig_ecs.validate import fail, join, read, suggest, text
 from twig_ecs.yamldoc import YDict, merge, parse_yaml
 
 #: The schema version this release reads (the ``twig:`` key of every file).
@@ -62,6 +62,7 @@ class ContentLibrary:
 
     def __init__(self, content_dirs: tuple[str | Path, ...] | list[str | Path] = ()) -> None:
         self._template_docs: dict[str, YDict] = {}
+        self._paths: dict[str, str] = {}
         self._compiled: dict[str, BodyTemplate] = {}
         self.scenes: dict[str, Path] = {}
         self._add_dir(builtin_dir())
@@ -83,15 +84,21 @@ class ContentLibrary:
             else:
                 self.scenes[path.stem] = path
 
-    def add_template(self, name: str, doc: YDict) -> None:
-        """Register (or replace) the template document called ``name``."""
+    def add_template(self, name: str, doc: YDict, path: str = "") -> None:
+        """Register (or replace) the template document called ``name``.
+
+        ``path`` is where the document sits inside its file (``templates.stick`` for a
+        scene's own template), so errors can point inside it.
+        """
         self._template_docs[name] = doc
+        self._paths[name] = path
         self._compiled.pop(name, None)
 
     def copy(self) -> ContentLibrary:
         """A library with the same content, to which a scene may add its own templates."""
         other = ContentLibrary.__new__(ContentLibrary)
         other._template_docs = dict(self._template_docs)
+        other._paths = dict(self._paths)
         other._compiled = dict(self._compiled)
         other.scenes = dict(self.scenes)
         return other
@@ -110,28 +117,20 @@ class ContentLibrary:
         if name not in self._compiled:
             if name not in self._template_docs:
                 raise KeyError(f"unknown template '{name}'" + suggest(name, self._template_docs))
-            self._compiled[name] = compile_template(name, self._resolve(name, ()))
+            self._compiled[name] = compile_template(name, self._resolve(name, ()), self._paths[name])
         return self._compiled[name]
 
     def _resolve(self, name: str, chain: tuple[str, ...]) -> YDict:
         doc = self._template_docs[name]
         if "extends" not in doc:
             return _strip(doc)
-        parent = read(doc, "extends", "extends", text)
+        where = join(self._paths[name], "extends")
+        parent = read(doc, "extends", self._paths[name], text)
         if parent in chain + (name,):
-            fail(
-                doc,
-                "extends",
-                "extends",
-                "templates extend each other in a cycle: " + " -> ".join(chain + (name, parent)),
-            )
+            cycle = " -> ".join(chain + (name, parent))
+            fail(doc, "extends", where, f"templates extend each other in a cycle: {cycle}")
         if parent not in self._template_docs:
-            fail(
-                doc,
-                "extends",
-                "extends",
-                f"unknown template '{parent}'" + suggest(parent, self._template_docs),
-            )
+            fail(doc, "extends", where, f"unknown template '{parent}'" + suggest(parent, self._template_docs))
         return merge(self._resolve(parent, chain + (name,)), _strip(doc))
 
     def scene_path(self, name_or_path: str | Path) -> Path:

@@ -132,7 +132,7 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
         templates = read(doc, "templates", "", mapping)
         for tname in templates:
             read(templates, tname, "templates", mapping)
-            library.add_template(str(tname), templates[tname])
+            library.add_template(str(tname), templates[tname], join("templates", str(tname)))
         for tname in templates:  # compile now so errors surface at load
             library.template(str(tname))
     entities = []

@@ -60,25 +60,29 @@ def number(value: Any) -> float:
     return float(value)
 
 
+def _bounded(value: Any, ok, expected: str) -> float:
+    try:
+        x = number(value)
+    except ValueError:
+        raise ValueError(expected) from None
+    if not ok(x):
+        raise ValueError(expected)
+    return x
+
+
 def positive(value: Any) -> float:
     """A number > 0."""
-    if number(value) <= 0:
-        raise ValueError("a number greater than 0")
-    return float(value)
+    return _bounded(value, lambda x: x > 0, "a number greater than 0")
 
 
 def nonnegative(value: Any) -> float:
     """A number >= 0."""
-    if number(value) < 0:
-        raise ValueError("a number of at least 0")
-    return float(value)
+    return _bounded(value, lambda x: x >= 0, "a number of at least 0")
 
 
 def fraction(value: Any) -> float:
     """A number in [0, 1]."""
-    if not 0 <= number(value) <= 1:
-        raise ValueError("a number from 0 to 1")
-    return float(value)
+    return _bounded(value, lambda x: 0 <= x <= 1, "a number from 0 to 1")
 
 
 def integer(lo: int, hi: int) -> Callable[[Any], int]:
