@@ -8,7 +8,7 @@ import esper
 import numpy as np
 
 from twig_ecs.components import Body
-from twig_ecs.store import NODE_LOCKED
+from twig_ecs.store import NODE_LOCK_ON_CONTACT, NODE_LOCKED
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
@@ -58,6 +58,11 @@ class BodyHandle:
     def node(self, name: str) -> np.ndarray:
         """Position (m) of the named node."""
         return self.scene.state.nodes.pos[self._row(name)].copy()
+
+    def node_velocity(self, name: str) -> np.ndarray:
+        """Velocity (m/s) of the named node over the last step."""
+        i, n = self._row(name), self.scene.state.nodes
+        return (n.pos[i] - n.prev[i]) / self.scene.dt
 
     @property
     def node_positions(self) -> np.ndarray:
@@ -116,3 +121,31 @@ class BodyHandle:
         n.pos[rows] += d
         n.prev[rows] += d
         n.lock_pos[rows] += d
+
+    def lock(self, node: str) -> None:
+        """Hold a node where it is (static friction, a fixed pivot) until :meth:`unlock`."""
+        i = self._row(node)
+        n = self.scene.state.nodes
+        n.flags[i] |= NODE_LOCKED
+        n.lock_pos[i] = n.pos[i]
+        n.prev[i] = n.pos[i]
+
+    def lock_on_contact(self, node: str, enabled: bool = True) -> None:
+        """Make a node lock itself the moment it touches the ground (or stop doing so)."""
+        i = self._row(node)
+        n = self.scene.state.nodes
+        if enabled:
+            n.flags[i] |= NODE_LOCK_ON_CONTACT
+        else:
+            n.flags[i] &= np.uint32(~NODE_LOCK_ON_CONTACT & 0xFFFFFFFF)
+
+    def unlock(self, node: str) -> None:
+        """Free a locked node; it starts at rest."""
+        i = self._row(node)
+        n = self.scene.state.nodes
+        n.flags[i] &= np.uint32(~(NODE_LOCKED | NODE_LOCK_ON_CONTACT) & 0xFFFFFFFF)
+        n.prev[i] = n.pos[i]
+
+    def is_locked(self, node: str) -> bool:
+        """Is the node held in place?"""
+        return bool(self.scene.state.nodes.flags[self._row(node)] & NODE_LOCKED)

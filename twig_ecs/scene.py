@@ -25,7 +25,7 @@ from twig_ecs.library import ContentLibrary
 from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_scene
 from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
-from twig_ecs.store import PhysicsState
+from twig_ecs.store import LINK_GRAB, PhysicsState
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
@@ -173,6 +173,55 @@ class Scene:
             body.index = int(bodies[body.index])
             body.node_start = int(nodes[body.node_start])
             body.link_start = int(links[body.link_start]) if body.link_count else 0
+
+    # -- grab joints --------------------------------------------------------------------
+
+    def grab(self, holder: str, node: str, target: str, target_node: str) -> int:
+        """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a zero-length link.
+
+        The two nodes are pulled together by the constraint solver (a ball joint, SPEC 3).
+        Returns the grab joint's entity; :meth:`release` removes it.
+        """
+        self.activate()
+        h, t = self.entity(holder), self.entity(target)
+        if h.entity == t.entity:
+            raise TwigError(f"'{holder}' cannot grab itself")
+        a, b = h._row(node), t._row(target_node)
+        links = self.state.links
+        row = links.allocate(1).start
+        links.a[row], links.b[row] = a, b
+        links.rest[row] = 0.0
+        links.flags[row] = LINK_GRAB
+        links.body[row] = h.body.index
+        entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
+        links.entity[row] = entity
+        self.state.version += 1
+        return entity
+
+    def release(self, grab: int) -> None:
+        """Remove a grab joint made by :meth:`grab` (its entity id)."""
+        self.activate()
+        joint = esper.try_component(grab, GrabJoint)
+        if joint is None:
+            raise TwigError(f"no grab joint {grab}")
+        links = self.state.links
+        keep = np.ones(links.count, dtype=bool)
+        keep[joint.index] = False
+        remap = links.keep(keep)
+        esper.delete_entity(grab, immediate=True)
+        for _, link in esper.get_component(Link):
+            link.index = int(remap[link.index])
+        for _, other in esper.get_component(GrabJoint):
+            other.index = int(remap[other.index])
+        for _, body in esper.get_component(Body):
+            if body.link_count:
+                body.link_start = int(remap[body.link_start])
+        self.state.rebuild_colliders()
+
+    def grabs(self) -> list[tuple[int, GrabJoint]]:
+        """All grab joints as (entity, GrabJoint)."""
+        self.activate()
+        return list(esper.get_component(GrabJoint))
 
     # -- systems --------------------------------------------------------------------
 
