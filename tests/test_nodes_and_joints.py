@@ -105,4 +105,14 @@ def test_far_apart_bodies_produce_no_candidate_pairs(empty_scene):
     scene.spawn("humanoid", name="b", position=(50, 0, 0))
     scene.spawn("ball", name="c", position=(-50, 0, 50))
     scene.step()
-    assert scene.state.n_pairs == 0
+    st = scene.state
+    pairs = st.pairs[: st.n_pairs]
+    bodies = st.colliders.body[pairs]
+    assert len(pairs) > 0, "limbs of one body near each other are candidates"
+    assert np.all(bodies[:, 0] == bodies[:, 1]), "no pair may join bodies 50 m apart"
+    # brought together, the pairs appear
+    scene.entity("b").translate((-49.5, 0, 0))
+    scene.step()
+    pairs = st.pairs[: st.n_pairs]
+    bodies = st.colliders.body[pairs]
+    assert np.any(bodies[:, 0] != bodies[:, 1])
