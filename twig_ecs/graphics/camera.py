@@ -119,41 +119,55 @@ class OrbitCamera:
         k = 1.0 - 0.5 ** (dt / half_life) if half_life > 0 else 1.0
         self.target = self.target + k * (np.asarray(point, dtype=np.float64) - self.target)
 
-    def fit(self, lo: np.ndarray, hi: np.ndarray, aspect: float, margin: float = 1.08) -> None:
-        """Aim at the box [lo, hi] and back off until all of its corners are in view."""
-        lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
-        self.target = (lo + hi) / 2.0
+    def fit(self, points: np.ndarray, aspect: float, margin: float = 1.1) -> None:
+        """Aim at the middle of ``points`` (n, 3) and back off until all of them are in view."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        self.target = (pts.min(axis=0) + pts.max(axis=0)) / 2.0
+        self.distance = self.distance_to_fit(pts, aspect, margin)
+
+    def distance_to_fit(self, points: np.ndarray, aspect: float, margin: float = 1.1) -> float:
+        """The distance from ``target`` at which every point is inside the view."""
         right, up, back = self.basis()
         tan_y = math.tan(math.radians(self.fov_y) / 2.0) / margin
         tan_x = tan_y * aspect
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        rel = corners - self.target
-        # A corner at (x, y) in the view plane and z towards the eye is in view when
+        rel = np.asarray(points, dtype=np.float64) - self.target
+        # A point at (x, y) in the view plane and z towards the eye is in view when
         # |x| <= (d - z) tan_x and |y| <= (d - z) tan_y, so d >= z + |x| / tan_x (and y).
-        z = rel @ back
-        need = np.maximum(np.abs(rel @ right) / tan_x, np.abs(rel @ up) / tan_y) + z
-        self.distance = max(1.0, float(need.max()))
+        need = np.maximum(np.abs(rel @ right) / tan_x, np.abs(rel @ up) / tan_y) + rel @ back
+        return max(1.0, float(need.max()))
 
     def copy(self) -> OrbitCamera:
         return OrbitCamera(self.target, self.yaw, self.pitch, self.distance, self.fov_y, self.near, self.far)
 
 
-def scene_bounds(state, pad: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
-    """Axis-aligned box around every node of a :class:`PhysicsState` (with the ground)."""
+def scene_points(state) -> np.ndarray:
+    """Points that enclose every node of a :class:`PhysicsState`, and the ground each body
+    could cover if it fell over (a circle of its height around it), or a small box around
+    the origin when the scene is empty."""
     n = state.nodes
     if n.count == 0:
-        return np.array([-2.0, 0.0, -2.0]), np.array([2.0, 2.0, 2.0])
+        return np.array([[x, y, z] for x in (-2.0, 2.0) for y in (0.0, 2.0) for z in (-2.0, 2.0)])
     pos = n.pos[: n.count]
-    r = n.radius[: n.count, None]
-    lo = (pos - r).min(axis=0) - pad
-    hi = (pos + r).max(axis=0) + pad
-    lo[1] = min(lo[1], 0.0)
-    return lo, hi
+    r = n.radius[: n.count, None] + 0.1
+    offsets = np.vstack([np.eye(3), -np.eye(3)])
+    points = [(pos[:, None, :] + r[:, :, None] * offsets[None]).reshape(-1, 3)]
+    angles = np.linspace(0.0, 2 * math.pi, 8, endpoint=False)
+    circle = np.c_[np.cos(angles), np.zeros(8), np.sin(angles)]
+    body = n.body[: n.count]
+    for b in np.unique(body):
+        mine = pos[body == b]
+        reach = 0.8 * float(mine[:, 1].max() - mine[:, 1].min())
+        if reach > 0.3:
+            base = np.array([mine[:, 0].mean(), 0.0, mine[:, 2].mean()])
+            points.append(base + reach * circle)
+    return np.vstack(points)
 
 
-#: The view every ``auto`` camera starts from (degrees).
+#: The view an ``auto`` camera prefers (degrees); it may turn up to AUTO_YAW_RANGE either
+#: way when that lets it come closer (a scene spread along one line is best seen side-on).
 DEFAULT_YAW = 205.0
-DEFAULT_PITCH = 28.0
+DEFAULT_PITCH = 32.0
+AUTO_YAW_RANGE = 60.0
 
 
 def _floats(text: str, count: int, spec: str) -> np.ndarray:
@@ -194,13 +208,14 @@ class CameraSpec:
             body = text.split(":", 1)[1]
             n = len(body.split(","))
             if n not in (2, 3):
-                raise CameraError(f"camera '{spec}': use orbit:YAW,PITCH or orbit:YAW,PITCH,DISTANCE (degrees, m)")
+                raise CameraError(f"camera '{spec}': use orbit:YAW,PITCH or orbit:YAW,PITCH,DISTANCE")
             vals = _floats(body, n, spec)
             return cls(mode="orbit", yaw=vals[0], pitch=vals[1], distance=vals[2] if n == 3 else None)
         eye_text, _, target_text = text.partition("@")
         if len(eye_text.split(",")) != 3:
             raise CameraError(
-                f"unknown camera '{spec}': use auto, follow:NAME, orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ]"
+                f"unknown camera '{spec}': use auto, follow:NAME, orbit:YAW,PITCH[,DIST] "
+                "or EX,EY,EZ[@TX,TY,TZ]"
             )
         eye = _floats(eye_text, 3, spec)
         target = _floats(target_text, 3, spec) if target_text else None
@@ -209,7 +224,7 @@ class CameraSpec:
     def make(self, scene, aspect: float) -> OrbitCamera:
         """A camera for ``scene`` (its current state) and a viewport ``aspect``."""
         cam = OrbitCamera(np.zeros(3), yaw=self.yaw, pitch=self.pitch)
-        lo, hi = scene_bounds(scene.state)
+        points = scene_points(scene.state)
         if self.mode == "follow":
             if self.name not in scene.entity_names:
                 names = ", ".join(scene.entity_names) or "none"
@@ -218,7 +233,7 @@ class CameraSpec:
             cam.distance = 6.0
             return cam
         if self.mode == "eye":
-            target = self.target if self.target is not None else (lo + hi) / 2.0
+            target = self.target if self.target is not None else (points.min(0) + points.max(0)) / 2.0
             offset = self.eye - target
             dist = float(np.linalg.norm(offset))
             if dist < 1e-6:
@@ -228,7 +243,17 @@ class CameraSpec:
             cam.pitch = math.degrees(math.asin(max(-1.0, min(1.0, offset[1] / dist))))
             cam.yaw = math.degrees(math.atan2(offset[0], offset[2]))
             return cam
-        cam.fit(lo, hi, aspect)
+        if self.mode == "auto":
+            best = None
+            for yaw in np.arange(-AUTO_YAW_RANGE, AUTO_YAW_RANGE + 1, 10.0) + self.yaw:
+                cam.yaw = float(yaw) % 360.0
+                cam.fit(points, aspect)
+                # Prefer the default view unless turning saves more than a few per cent.
+                score = cam.distance * (1.0 + 0.001 * abs(yaw - self.yaw))
+                if best is None or score < best[0]:
+                    best = (score, cam.yaw)
+            cam.yaw = best[1]
+        cam.fit(points, aspect)
         if self.distance is not None:
             cam.distance = self.distance
         return cam

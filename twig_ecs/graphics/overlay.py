@@ -1,0 +1,130 @@
+"""Text panels drawn over the 3D view: status line, help, inspector.
+
+Panels are Pillow RGBA images that the renderer uploads as textures, so they look the
+same in the window, in screenshots and offscreen. The inspector's columns are a
+registry: a later feature adds one with :func:`add_inspector_field`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+_FONT_FILES = (
+    "/usr/share/fonts/truetype/dejavu/DejaVuSansMono.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSansMono.ttf",
+    "/Library/Fonts/Menlo.ttc",
+    "C:/Windows/Fonts/consola.ttf",
+)
+
+HELP_LINES = (
+    "Mouse drag      orbit            Right drag / WASD  pan",
+    "Wheel           zoom             Q / E              turn",
+    "Space           pause / run      .                  one step",
+    "Tab             next character   F                  follow selected",
+    "R               reload scene     L                  hidden links",
+    "F1              inspector        F12                screenshot (PNG)",
+    "H               this help        Esc                quit",
+)
+
+
+@lru_cache(maxsize=8)
+def font(size: int) -> ImageFont.ImageFont | ImageFont.FreeTypeFont:
+    """A monospaced font of ``size`` pixels (Pillow's built-in font when none is installed)."""
+    for path in _FONT_FILES:
+        if Path(path).exists():
+            try:
+                return ImageFont.truetype(path, size)
+            except OSError:
+                continue
+    try:
+        return ImageFont.load_default(size=size)
+    except TypeError:  # Pillow < 10.1
+        return ImageFont.load_default()
+
+
+def text_panel(lines: Sequence[str], scale: float = 1.0, title: str | None = None) -> Image.Image:
+    """A dark translucent box with ``lines`` of white text; ``scale`` follows the pixel ratio."""
+    size = max(9, round(14 * scale))
+    f = font(size)
+    pad = round(8 * scale)
+    line_h = round(size * 1.35)
+    all_lines = ([title] if title else []) + list(lines)
+    widths = [f.getbbox(line)[2] if line else 0 for line in all_lines]
+    width = int(max(widths, default=0) + 2 * pad)
+    height = int(line_h * len(all_lines) + 2 * pad)
+    image = Image.new("RGBA", (max(width, 1), max(height, 1)), (20, 22, 28, 170))
+    draw = ImageDraw.Draw(image)
+    for k, line in enumerate(all_lines):
+        color = (255, 220, 120, 255) if title and k == 0 else (235, 238, 242, 255)
+        draw.text((pad, pad + k * line_h), line, font=f, fill=color)
+    return image
+
+
+# -- inspector ------------------------------------------------------------------------
+
+#: A column of the inspector: (scene, entity name) -> short text.
+InspectorField = Callable[[object, str], str]
+
+
+def _pain(scene, name: str) -> str:
+    return f"{scene.entity(name).pain:6.2f}"
+
+
+def _behaviour(scene, name: str) -> str:
+    """The winning behaviour, once characters have one (a later issue); 'none' until then."""
+    try:
+        value = getattr(scene.entity(name), "behaviour", None)
+    except Exception:  # noqa: BLE001 - the inspector must never take the window down
+        value = None
+    if value is None:
+        return "none"
+    return str(getattr(value, "name", value))
+
+
+#: Inspector columns after the name, in order. Add more with :func:`add_inspector_field`.
+INSPECTOR_FIELDS: dict[str, InspectorField] = {"behaviour": _behaviour, "pain": _pain}
+
+
+def add_inspector_field(title: str, field: InspectorField) -> None:
+    """Add (or replace) an inspector column computed by ``field(scene, name)``."""
+    INSPECTOR_FIELDS[title] = field
+
+
+def inspector_rows(scene) -> list[dict[str, str]]:
+    """One row per body with a pain sensor (the characters): name plus every field."""
+    state = scene.state
+    rows = []
+    for name in scene.entity_names:
+        try:
+            body = scene.entity(name).body
+            if not np.isfinite(state.bodies.pain_threshold[body.index]):
+                continue
+        except (KeyError, AttributeError):
+            continue
+        row = {"name": name}
+        for title, field in INSPECTOR_FIELDS.items():
+            try:
+                row[title] = field(scene, name)
+            except Exception as exc:  # noqa: BLE001 - show the problem in the cell instead
+                row[title] = f"? {type(exc).__name__}"
+        rows.append(row)
+    return rows
+
+
+def inspector_lines(scene, selected: str | None = None) -> list[str]:
+    """The inspector as aligned text lines (a '>' marks the selected character)."""
+    rows = inspector_rows(scene)
+    if not rows:
+        return ["no characters (bodies with a pain sensor)"]
+    titles = list(rows[0])
+    widths = {t: max(len(t), *(len(r[t]) for r in rows)) for t in titles}
+    lines = ["  " + "  ".join(t.ljust(widths[t]) for t in titles)]
+    for r in rows:
+        mark = "> " if r["name"] == selected else "  "
+        lines.append(mark + "  ".join(r[t].ljust(widths[t]) for t in titles))
+    return lines
