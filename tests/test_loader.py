@@ -50,7 +50,7 @@ GOOD_BODY = """
         pytest.param(
             "twig: 1\nentities:\n  - name: a\n    body: humanoid\n    height: tall\n",
             5,
-            ["entities[0].height", "expected a number greater than 0", "'tall' (str)"],
+            ["entities[0].height", "expected a number greater than 0", "got 'tall' (str)"],
             id="wrong-type",
         ),
         pytest.param(
@@ -196,3 +196,19 @@ def test_spawn_with_bad_parameters_raises_and_leaves_the_world_intact(empty_scen
     with pytest.raises(SceneError, match="already exists"):
         scene.spawn("ball", name="b")
     assert (scene.state.nodes.count, scene.state.links.count, scene.entity_names) == before
+
+
+def test_hostile_sizes_are_refused_with_a_message(tmp_path):
+    huge = write(tmp_path, "twig: 1\nentities:\n  - {name: a, body: humanoid, height: 1e300}\n", "huge.yaml")
+    assert "at most 1e+06" in str(load_error(huge))
+    far = write(
+        tmp_path, "twig: 1\nentities:\n  - {name: a, body: ball, position: [1e9, 0, 0]}\n", "far.yaml"
+    )
+    assert "entities[0].position" in str(load_error(far))
+    bomb = "twig: 1\na: &a [x, x, x, x, x, x, x, x, x, x]\n"
+    for k in range(1, 9):
+        bomb += (
+            f"{'abcdefghij'[k]}: &{'abcdefghij'[k]} [" + ", ".join([f"*{'abcdefghij'[k - 1]}"] * 10) + "]\n"
+        )
+    message = str(load_error(write(tmp_path, bomb, "bomb.yaml")))
+    assert "document too large" in message

@@ -53,10 +53,17 @@ def _describe(value: Any) -> str:
 # -- value kinds: each takes a raw value, returns the clean one or raises ValueError(expected)
 
 
+#: Largest magnitude any number in a scene may have: a million metres, kilograms or
+#: seconds is far beyond any sensible scene, and keeps float64 positions precise.
+LIMIT = 1e6
+
+
 def number(value: Any) -> float:
-    """A finite real number (not a boolean)."""
+    """A finite real number (not a boolean) of magnitude at most LIMIT."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ValueError("a finite number")
+    if abs(value) > LIMIT:
+        raise ValueError(f"a number between -{LIMIT:g} and {LIMIT:g}")
     return float(value)
 
 
@@ -64,7 +71,7 @@ def _bounded(value: Any, ok, expected: str) -> float:
     try:
         x = number(value)
     except ValueError:
-        raise ValueError(expected) from None
+        raise ValueError(f"{expected} (and at most {LIMIT:g} in size)") from None
     if not ok(x):
         raise ValueError(expected)
     return x

@@ -7,6 +7,7 @@ errors can say ``scene.yaml:12: entities[2].body: ...``. Duplicate keys are erro
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import yaml
@@ -41,38 +42,66 @@ class YList(list):
         return self.file, self.line
 
 
-def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor) -> Any:
+#: Most values one document may hold (after expanding aliases): a guard against
+#: "billion laughs" documents that would otherwise expand without end.
+MAX_VALUES = 1_000_000
+#: Largest file read, in bytes.
+MAX_BYTES = 16 * 1024 * 1024
+
+
+def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor,
+             budget: list[int]) -> Any:  # fmt: skip
+    budget[0] -= 1
+    if budget[0] < 0:
+        raise SceneError(f"document too large: more than {MAX_VALUES} values (aliases expanded)", file)
     line = node.start_mark.line + 1
     if isinstance(node, yaml.MappingNode):
         out = YDict()
         out.file, out.line, out.key_lines = file, line, {}
         for key_node, value_node in node.value:
-            key = _convert(key_node, file, constructor)
+            key = _convert(key_node, file, constructor, budget)
             if isinstance(key, (YDict, YList)):
                 raise SceneError("mapping keys must be plain values", file, key_node.start_mark.line + 1)
             if key in out:
                 raise SceneError(f"duplicate key '{key}'", file, key_node.start_mark.line + 1)
-            out[key] = _convert(value_node, file, constructor)
+            out[key] = _convert(value_node, file, constructor, budget)
             out.key_lines[key] = (file, key_node.start_mark.line + 1)
         return out
     if isinstance(node, yaml.SequenceNode):
         out = YList()
         out.file, out.line = file, line
         out.item_lines = [item.start_mark.line + 1 for item in node.value]
-        out.extend(_convert(item, file, constructor) for item in node.value)
+        out.extend(_convert(item, file, constructor, budget) for item in node.value)
         return out
     return constructor.construct_object(node, deep=True)
 
 
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads ``1e3`` and ``-2.5E-4`` as floats, as YAML 1.2 does.
+
+    (PyYAML follows YAML 1.1, where an exponent without a dot makes a string.)
+    """
+
+
+_Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
 def parse_yaml(text: str, file: str = "<string>") -> Any:
     """Parse one YAML document into YDict/YList/scalars; syntax errors become SceneError."""
+    if len(text) > MAX_BYTES:
+        raise SceneError(f"file too large: over {MAX_BYTES // (1024 * 1024)} MiB", file)
     try:
-        loader = yaml.SafeLoader(text)
+        loader = _Loader(text)
         try:
             root = loader.get_single_node()
             if root is None:
                 return None
-            return _convert(root, file, loader)
+            return _convert(root, file, loader, [MAX_VALUES])
         finally:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
