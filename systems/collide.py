@@ -68,12 +68,17 @@ def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, 
         start[h + 1] += start[h]
     fill = start[:-1].copy()
     entry_col = np.empty(n_entries, dtype=np.int64)
+    entry_cell = np.empty((n_entries, 3), dtype=np.int64)
     for c in range(n_col):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
                     h = _cell_hash(ix, iy, iz, hmask)
-                    entry_col[fill[h]] = c
+                    e = fill[h]
+                    entry_col[e] = c
+                    entry_cell[e, 0] = ix
+                    entry_cell[e, 1] = iy
+                    entry_cell[e, 2] = iz
                     fill[h] += 1
     n_pairs = 0
     cap = pairs.shape[0]
@@ -84,6 +89,9 @@ def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, 
                 j = entry_col[e2]
                 if i == j:
                     continue
+                # joints within one body first: the cheapest test, and most pairs in a crowd
+                if col_body[i] == col_body[j] and (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
+                    continue
                 # boxes overlap?
                 overlap = True
                 for k in range(3):
@@ -93,24 +101,19 @@ def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, 
                 if not overlap:
                     continue
                 # count each pair once: in the cell holding the low corner of the overlap
-                ox = int(math.floor(max(lo[i, 0], lo[j, 0]) / cell))
-                oy = int(math.floor(max(lo[i, 1], lo[j, 1]) / cell))
-                oz = int(math.floor(max(lo[i, 2], lo[j, 2]) / cell))
-                if _cell_hash(ox, oy, oz, hmask) != h:
-                    continue
-                # the low-corner cell may share this hash bucket with another cell that
-                # both colliders also occupy: check the pair really lies in that cell
+                # (both entries must be that very cell, not another one sharing the bucket)
+                ox = max(cl[i, 0], cl[j, 0])
+                oy = max(cl[i, 1], cl[j, 1])
+                oz = max(cl[i, 2], cl[j, 2])
                 if not (
-                    cl[i, 0] <= ox <= ch[i, 0]
-                    and cl[i, 1] <= oy <= ch[i, 1]
-                    and cl[i, 2] <= oz <= ch[i, 2]
-                    and cl[j, 0] <= ox <= ch[j, 0]
-                    and cl[j, 1] <= oy <= ch[j, 1]
-                    and cl[j, 2] <= oz <= ch[j, 2]
+                    entry_cell[e1, 0] == ox
+                    and entry_cell[e1, 1] == oy
+                    and entry_cell[e1, 2] == oz
+                    and entry_cell[e2, 0] == ox
+                    and entry_cell[e2, 1] == oy
+                    and entry_cell[e2, 2] == oz
                 ):
-                    continue
-                if col_body[i] == col_body[j] and (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
-                    continue
+                    continue  # fmt: skip
                 if n_pairs < cap:
                     pairs[n_pairs, 0] = min(i, j)
                     pairs[n_pairs, 1] = max(i, j)
