@@ -237,6 +237,7 @@ class Renderer:
             obj.release()
         ctx = self.ctx
         color = ctx.texture(size, 4)
+        self.frame_texture = color
         self.frame = ctx.framebuffer(color_attachments=[color])
         self._targets = [self.frame, color]
         if self.samples:
@@ -403,6 +404,16 @@ class Renderer:
             tex.filter = moderngl.NEAREST, moderngl.NEAREST
         self._panel_textures[key] = (image, tex)
         return tex
+
+    def present(self, screen: moderngl.Framebuffer, size: tuple[int, int]) -> None:
+        """Copy the last frame onto ``screen`` (a window's framebuffer of ``size`` pixels)."""
+        ctx = self.ctx
+        screen.use()
+        ctx.viewport = (0, 0, int(size[0]), int(size[1]))
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self.overlay["u_rect"].value = (-1.0, 1.0, 1.0, -1.0)  # GL rows run bottom-up: no flip
+        self.frame_texture.use(0)
+        self._overlay_vao.render(moderngl.TRIANGLE_STRIP)
 
     # -- reading ----------------------------------------------------------------------
 

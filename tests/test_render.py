@@ -1,0 +1,134 @@
+"""Offscreen rendering: what bodies put on screen, the files `twig render` writes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from twig_ecs import Scene
+from twig_ecs.cli import main
+from twig_ecs.graphics.camera import CameraError, CameraSpec
+from twig_ecs.graphics.offscreen import OffscreenRenderer, parse_size, render_scene
+from twig_ecs.graphics.renderer import build_tables, face_frames
+
+SIZE = (320, 180)
+
+
+@pytest.fixture(scope="module")
+def offscreen():
+    with OffscreenRenderer() as off:
+        yield off
+
+
+@pytest.fixture
+def schoolyard():
+    scene = Scene.load("schoolyard")
+    yield scene
+    scene.close()
+
+
+def test_bodies_change_the_image_where_they_project_and_nowhere_else(offscreen, schoolyard):
+    camera = CameraSpec().make(schoolyard, SIZE[0] / SIZE[1])
+    with_bodies = offscreen.render(schoolyard, camera, SIZE).astype(np.int16)
+    pixels = camera.project(schoolyard.state.nodes.pos[: schoolyard.state.nodes.count], *SIZE)
+    for name in schoolyard.entity_names:
+        schoolyard.remove(name)
+    empty = offscreen.render(schoolyard, camera, SIZE).astype(np.int16)
+
+    diff = np.abs(with_bodies - empty).sum(axis=2)
+    near = np.zeros(diff.shape, dtype=bool)  # within 16 px of a projected node
+    for x, y in pixels:
+        near[max(0, int(y) - 16) : int(y) + 17, max(0, int(x) - 16) : int(x) + 17] = True
+    assert near.mean() < 0.5, "the test needs background to compare against"
+    changed = diff > 30
+    assert changed.sum() > 500
+    assert changed[near].mean() > 0.2  # bodies cover a good part of their own neighbourhood
+    assert changed[~near].mean() < 0.005  # and leave the rest of the picture alone
+    assert changed[near].mean() > 50 * changed[~near].mean()
+
+
+def test_removing_bodies_leaves_ground_and_sky(offscreen):
+    scene = Scene.load("empty")
+    try:
+        camera = CameraSpec.parse("orbit:0,20,10").make(scene, SIZE[0] / SIZE[1])
+        image = offscreen.render(scene, camera, SIZE)
+    finally:
+        scene.close()
+    top, bottom = image[:20].reshape(-1, 3).mean(axis=0), image[-20:].reshape(-1, 3).mean(axis=0)
+    assert top[2] > top[0]  # bluish sky above the horizon
+    assert abs(float(bottom.mean()) - float(top.mean())) > 3  # a different ground below
+
+
+def test_humanoid_face_points_along_its_facing(schoolyard):
+    tables = build_tables(schoolyard)
+    assert len(tables.faces.head) == 4  # parent, two children and the ragdoll have heads
+    pos = schoolyard.state.nodes.pos
+    forward, left, up = face_frames(pos, tables.faces)
+    parent = schoolyard.entity_names.index("parent")  # facing 30 degrees
+    expected = np.array([np.sin(np.radians(30)), 0.0, np.cos(np.radians(30))])
+    assert forward[parent] @ expected > 0.97
+    assert up[parent][1] > 0.9
+    assert np.cross(up[parent], forward[parent]) @ left[parent] > 0.99
+
+
+def test_gif_has_the_requested_frame_count(schoolyard, tmp_path):
+    result = render_scene(schoolyard, 0.5, tmp_path / "clip.gif", size=(160, 90), fps=10, progress=False)
+    with Image.open(tmp_path / "clip.gif") as gif:
+        assert gif.n_frames == 5 == result.frames
+        assert gif.size == (160, 90)
+        assert gif.info["duration"] == 100
+    assert schoolyard.frame == 30  # the last frame shows t = 0.5 s
+
+
+def test_mp4_has_the_requested_frame_count(schoolyard, tmp_path):
+    imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    render_scene(schoolyard, 0.4, tmp_path / "clip.mp4", size=(160, 96), fps=20, progress=False)
+    frames, _seconds = imageio_ffmpeg.count_frames_and_secs(str(tmp_path / "clip.mp4"))
+    assert frames == 8
+
+
+def test_twig_render_writes_a_1280x720_png_by_default(tmp_path, capsys):
+    out = tmp_path / "shot.png"
+    assert main(["render", "schoolyard", "--seconds", "0.2", "-o", str(out)]) == 0
+    with Image.open(out) as image:
+        assert image.size == (1280, 720)
+        assert np.asarray(image).std() > 10
+    assert "wrote" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--size", "12x5"], "out of range"),
+        (["--size", "wide"], "WIDTHxHEIGHT"),
+        (["-o", "shot.bmp"], ".png, .gif or .mp4"),
+        (["--camera", "follow:nobody"], "no entity"),
+        (["--camera", "1,2"], "unknown camera"),
+        (["--seconds", "0"], "more than 0"),
+    ],
+)
+def test_twig_render_explains_bad_options(args, message, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = ["render", "empty", "-o", "x.png", "--seconds", "0.1", *args]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_camera_specs_parse():
+    assert CameraSpec.parse("auto").mode == "auto"
+    assert CameraSpec.parse("follow:parent").name == "parent"
+    spec = CameraSpec.parse("orbit:90,30,12")
+    assert (spec.yaw, spec.pitch, spec.distance) == (90, 30, 12)
+    spec = CameraSpec.parse("0,5,10@0,1,0")
+    assert spec.eye.tolist() == [0, 5, 10] and spec.target.tolist() == [0, 1, 0]
+    with pytest.raises(CameraError):
+        CameraSpec.parse("orbit:1")
+    assert parse_size("640x480") == (640, 480)
+
+
+def test_eye_camera_looks_at_its_target(schoolyard):
+    camera = CameraSpec.parse("0,5,10@0,1,0").make(schoolyard, 16 / 9)
+    np.testing.assert_allclose(camera.eye, [0, 5, 10], atol=1e-9)
+    x, y = camera.project(np.array([[0.0, 1.0, 0.0]]), 320, 180)[0]
+    assert abs(x - 160) < 1e-6 and abs(y - 90) < 1e-6

@@ -1,0 +1,468 @@
+"""``twig play``: a pyglet window that runs a scene and draws it with the shared renderer.
+
+:class:`Viewer` holds everything that is not pyglet: the scene, the camera, the fixed-step
+clock (60 Hz with an accumulator, at most ``MAX_STEPS_PER_FRAME`` steps per drawn frame,
+drawing interpolated by the leftover fraction), selection, overlays and the key bindings.
+:func:`open_window` wraps it in a pyglet window; tests drive that window frame by frame
+with :meth:`PlayWindow.frame`.
+
+pyglet reads its platform options when ``pyglet.window`` is first imported, so that import
+happens here, on demand, after ``headless`` (an EGL pbuffer "window" that needs no display)
+has been decided.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pyglet
+from PIL import Image
+
+from twig_ecs.errors import TwigError
+from twig_ecs.graphics.camera import CameraSpec, OrbitCamera
+from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
+from twig_ecs.graphics.renderer import Renderer
+
+MAX_STEPS_PER_FRAME = 8  # a slower frame drops time instead of spiralling
+PAN_SPEED = 0.6  # WASD: distances per second
+TURN_SPEED = 90.0  # Q/E: degrees per second
+ORBIT_DEG_PER_PIXEL = 0.3
+
+
+class WindowError(TwigError):
+    """The window cannot be opened (no display, no OpenGL 3.3)."""
+
+
+def load_pyglet_window(headless: bool = False):
+    """Import ``pyglet.window`` with the right platform options and return the module."""
+    if "pyglet.window" in sys.modules:
+        if bool(pyglet.options["headless"]) != headless:
+            mode = "headless" if headless else "with a display"
+            raise WindowError(f"pyglet.window was already imported in this process, not {mode}")
+        return importlib.import_module("pyglet.window")
+    if not headless and sys.platform.startswith("linux"):
+        if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise WindowError(
+                "twig play needs a display and none is set (DISPLAY is empty). Use 'twig render' "
+                "for images and videos, or 'twig play --headless --frames N' for a scripted check"
+            )
+    pyglet.options["shadow_window"] = False  # no hidden GLX window when there is no X server
+    pyglet.options["headless"] = headless
+    return importlib.import_module("pyglet.window")
+
+
+@dataclass
+class Stats:
+    """Smoothed timings for the status line."""
+
+    frame_ms: float = 16.7
+    step_ms: float = 0.0
+
+    def add_frame(self, ms: float) -> None:
+        self.frame_ms += 0.1 * (ms - self.frame_ms)
+
+    def add_steps(self, ms: float, steps: int) -> None:
+        if steps:
+            self.step_ms += 0.2 * (ms / steps - self.step_ms)
+
+
+class Viewer:
+    """A scene, its camera and clock, and what the keys and mouse do to them."""
+
+    def __init__(self, source: str, seed: int = 0, content: tuple | list = (),
+                 camera: CameraSpec | None = None, paused: bool = False,
+                 screenshot_dir: str | Path = ".") -> None:  # fmt: skip
+        from twig_ecs import Scene
+
+        self.source, self.seed, self.content = source, seed, list(content)
+        self.scene = Scene.load(source, seed=seed, content=self.content)
+        self.scene.step(0)  # compile kernels and install systems now, not in the first frame
+        self.camera_spec = camera or CameraSpec()
+        self.camera: OrbitCamera | None = None  # made at the first frame, when the aspect is known
+        self.paused = paused
+        self.accumulator = 0.0
+        self.alpha = 1.0
+        self.restart_clock = True
+        self.show_help = False
+        self.show_inspector = False
+        self.follow = self.camera_spec.mode == "follow"
+        self.selected: str | None = self.camera_spec.name if self.follow else None
+        self.screenshot_dir = Path(screenshot_dir)
+        self.screenshot_requested = False
+        self.last_screenshot: Path | None = None
+        self.message = ""
+        self.message_until = 0.0
+        self.stats = Stats()
+        self.frames = 0
+        self.keys_down: set[int] = set()
+        self._status_cache: tuple[str, Image.Image] | None = None
+        self._panel_cache: dict[str, tuple[tuple, Image.Image]] = {}
+
+    # -- clock ------------------------------------------------------------------------
+
+    def advance(self, elapsed: float) -> int:
+        """Run as many fixed steps as ``elapsed`` seconds of wall time allow; return them."""
+        if self.restart_clock:  # the time spent loading a scene is not simulated time
+            elapsed, self.restart_clock = 0.0, False
+        self._move_camera(elapsed)
+        if self.paused:
+            self.accumulator = 0.0
+            self.alpha = 1.0
+            return 0
+        dt = self.scene.dt
+        self.accumulator += min(elapsed, 0.25)
+        steps = int(self.accumulator / dt)
+        if steps > MAX_STEPS_PER_FRAME:
+            steps = MAX_STEPS_PER_FRAME
+            self.accumulator = steps * dt  # drop the time we cannot catch up with
+        if steps:
+            t0 = time.perf_counter()
+            self.scene.step(steps)
+            self.stats.add_steps((time.perf_counter() - t0) * 1000.0, steps)
+            self.accumulator -= steps * dt
+        self.alpha = min(1.0, self.accumulator / dt)
+        return steps
+
+    def _move_camera(self, elapsed: float) -> None:
+        if self.camera is None:
+            return
+        key = self._key
+        dx = (key.D in self.keys_down) - (key.A in self.keys_down)
+        dz = (key.W in self.keys_down) - (key.S in self.keys_down)
+        if dx or dz:
+            self.camera.pan(dx * PAN_SPEED * elapsed, dz * PAN_SPEED * elapsed)
+            self.follow = False
+        turn = (key.E in self.keys_down) - (key.Q in self.keys_down)
+        if turn:
+            self.camera.orbit(turn * TURN_SPEED * elapsed, 0.0)
+        if self.follow and self.selected in self.scene.entity_names:
+            self.camera.follow(self.scene.entity(self.selected).position, max(elapsed, 1e-3))
+
+    # -- characters -------------------------------------------------------------------
+
+    def characters(self) -> list[str]:
+        """Names Tab cycles through: bodies with a head, else every body."""
+        names = []
+        for name in self.scene.entity_names:
+            if "head" in self.scene.entity(name).node_names:
+                names.append(name)
+        return names or self.scene.entity_names
+
+    def cycle_selection(self, step: int = 1) -> None:
+        names = self.characters()
+        if not names:
+            self.selected = None
+            return
+        k = names.index(self.selected) + step if self.selected in names else (0 if step > 0 else -1)
+        self.selected = names[k % len(names)]
+        self.say(f"selected {self.selected}")
+
+    # -- actions ----------------------------------------------------------------------
+
+    def say(self, text: str, seconds: float = 3.0) -> None:
+        """Show a message in the status line for a while."""
+        self.message = text
+        self.message_until = time.monotonic() + seconds
+
+    def step_once(self) -> None:
+        self.paused = True
+        self.scene.step(1)
+        self.alpha = 1.0
+
+    def reload(self) -> None:
+        """Load the scene file again; keep the old scene (and say why) if it fails."""
+        from twig_ecs import Scene
+
+        source = self.scene.source or self.source
+        try:
+            fresh = Scene.load(source, seed=self.seed, content=self.content)
+            fresh.step(0)
+        except TwigError as exc:
+            self.say(f"reload failed: {exc}", 8.0)
+            print(f"reload failed: {exc}", file=sys.stderr)
+            return
+        self.scene.close()
+        self.scene = fresh
+        self.accumulator = 0.0
+        self.restart_clock = True
+        if self.selected not in fresh.entity_names:
+            self.selected, self.follow = None, False
+        self.say(f"reloaded {Path(str(source)).name}")
+
+    def save_screenshot(self, renderer: Renderer) -> Path:
+        """Write the frame just drawn to a numbered PNG in ``screenshot_dir``."""
+        self.screenshot_dir.mkdir(parents=True, exist_ok=True)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = self.screenshot_dir / f"twig-{self.scene.name}-{stamp}-f{self.scene.frame:06d}.png"
+        k = 1
+        while path.exists():
+            path = path.with_name(f"{path.stem.split('~')[0]}~{k}.png")
+            k += 1
+        Image.fromarray(renderer.read_pixels()).save(path)
+        self.last_screenshot = path
+        self.say(f"saved {path}")
+        return path
+
+    # -- input --------------------------------------------------------------------------
+
+    def bind_keys(self, key_module) -> None:
+        """Remember pyglet's key constants (they exist once pyglet.window is imported)."""
+        self._key = key_module
+
+    def key_press(self, symbol: int, modifiers: int) -> str | None:
+        """Apply a key; returns the action name, or None if the key is not bound."""
+        key = self._key
+        self.keys_down.add(symbol)
+        action = {
+            key.SPACE: "pause",
+            key.PERIOD: "step",
+            key.NUM_DECIMAL: "step",
+            key.R: "reload",
+            key.H: "help",
+            key.F1: "inspector",
+            key.F12: "screenshot",
+            key.ESCAPE: "quit",
+            key.TAB: "select",
+            key.F: "follow",
+            key.L: "hidden_links",
+        }.get(symbol)
+        if action == "pause":
+            self.paused = not self.paused
+            self.say("paused" if self.paused else "running", 1.0)
+        elif action == "step":
+            self.step_once()
+        elif action == "reload":
+            self.reload()
+        elif action == "help":
+            self.show_help = not self.show_help
+        elif action == "inspector":
+            self.show_inspector = not self.show_inspector
+        elif action == "screenshot":
+            self.screenshot_requested = True
+        elif action == "select":
+            self.cycle_selection(-1 if modifiers & key.MOD_SHIFT else 1)
+        elif action == "follow":
+            if self.selected is None:
+                self.cycle_selection()
+            self.follow = not self.follow and self.selected is not None
+            self.say(f"following {self.selected}" if self.follow else "follow off", 1.5)
+        return action
+
+    def key_release(self, symbol: int) -> None:
+        self.keys_down.discard(symbol)
+
+    def mouse_drag(self, dx: float, dy: float, buttons: int, modifiers: int, window_height: int,
+                   mouse) -> None:  # fmt: skip
+        """Left drag orbits; right (or middle, or shift+left) drag pans with the cursor."""
+        if self.camera is None:
+            return
+        pan = buttons & (mouse.RIGHT | mouse.MIDDLE) or (
+            buttons & mouse.LEFT and modifiers & self._key.MOD_SHIFT
+        )
+        if pan:
+            per_pixel = 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / max(1, window_height)
+            self.camera.pan_screen(dx * per_pixel, dy * per_pixel)
+            self.follow = False
+        elif buttons & mouse.LEFT:
+            self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, -dy * ORBIT_DEG_PER_PIXEL)
+
+    def scroll(self, amount: float) -> None:
+        if self.camera is not None:
+            self.camera.zoom(0.88**amount)
+
+    # -- drawing ------------------------------------------------------------------------
+
+    def status_text(self) -> str:
+        fps = 1000.0 / max(self.stats.frame_ms, 1e-3)
+        parts = [f"fps {fps:5.1f}", f"sim {self.stats.step_ms:5.2f} ms/step", f"t {self.scene.time:7.2f} s",
+                 "PAUSED" if self.paused else "running"]  # fmt: skip
+        if self.selected:
+            parts.append(f"{self.selected}{' (follow)' if self.follow else ''}")
+        if self.message and time.monotonic() < self.message_until:
+            parts.append(self.message)
+        else:
+            parts.append("H help")
+        return "  |  ".join(parts)
+
+    def panels(self, size: tuple[int, int], scale: float) -> list:
+        """The text panels of this frame as (key, image, x, y) in framebuffer pixels."""
+        width, height = size
+        margin = round(10 * scale)
+        out = []
+        text = self.status_text()
+        if self._status_cache is None or self._status_cache[0] != text or self.frames % 15 == 0:
+            self._status_cache = (text, text_panel([text], scale))
+        status = self._status_cache[1]
+        out.append(("status", status, margin, height - status.size[1] - margin))
+        if self.show_help:
+            image = self._panel("help", (scale,), lambda: text_panel(HELP_LINES, scale, title="twig play"))
+            out.append(("help", image, (width - image.size[0]) // 2, (height - image.size[1]) // 2))
+        if self.show_inspector:
+            lines = tuple(inspector_lines(self.scene, self.selected))
+            image = self._panel(
+                "inspector", (scale, lines), lambda: text_panel(lines, scale, title="inspector")
+            )
+            out.append(("inspector", image, margin, margin))
+        return out
+
+    def _panel(self, key: str, inputs: tuple, make) -> Image.Image:
+        cached = self._panel_cache.get(key)
+        if cached is None or cached[0] != inputs:
+            cached = (inputs, make())
+            self._panel_cache[key] = cached
+        return cached[1]
+
+    def draw(self, renderer: Renderer, size: tuple[int, int], scale: float) -> None:
+        """Render the scene and panels into ``renderer.frame`` (the window presents it)."""
+        if self.camera is None:
+            self.camera = self.camera_spec.make(self.scene, size[0] / max(1, size[1]))
+        renderer.options.selected = self.selected
+        renderer.render(self.scene, self.camera, size, self.alpha, tuple(self.panels(size, scale)))
+        if self.screenshot_requested:
+            self.screenshot_requested = False
+            self.save_screenshot(renderer)
+        self.frames += 1
+
+    def close(self) -> None:
+        self.scene.close()
+
+
+def open_window(source: str = "schoolyard", seed: int = 0, content: tuple | list = (),
+                size: tuple[int, int] = (1280, 720), camera: CameraSpec | None = None,
+                paused: bool = False, headless: bool = False, screenshot_dir: str | Path = ".",
+                visible: bool = True):  # fmt: skip
+    """Open a play window (a :class:`PlayWindow`, a ``pyglet.window.Window``) on a scene."""
+    window_module = load_pyglet_window(headless)
+    viewer = Viewer(source, seed, content, camera, paused, screenshot_dir)
+    try:
+        return _window_class(window_module)(viewer, size, visible=visible and not headless)
+    except BaseException:
+        viewer.close()
+        raise
+
+
+_WINDOW_CLASS = None
+
+
+def _window_class(window_module):
+    """The pyglet window class, defined once pyglet.window has been imported."""
+    global _WINDOW_CLASS
+    if _WINDOW_CLASS is not None:
+        return _WINDOW_CLASS
+    key, mouse = window_module.key, window_module.mouse
+
+    class PlayWindow(window_module.Window):
+        """A resizable window that steps and draws a :class:`Viewer`."""
+
+        def __init__(self, viewer: Viewer, size: tuple[int, int], visible: bool = True) -> None:
+            config = pyglet.gl.Config(major_version=3, minor_version=3, forward_compatible=True,
+                                      double_buffer=True)  # fmt: skip
+            try:
+                super().__init__(size[0], size[1], caption=f"twig - {viewer.scene.name}", resizable=True,
+                                 config=config, visible=visible, vsync=True)  # fmt: skip
+            except (window_module.NoSuchConfigException, pyglet.gl.ContextException) as exc:
+                raise WindowError(f"cannot open an OpenGL 3.3 window: {exc}") from exc
+            self.viewer = viewer
+            viewer.bind_keys(key)
+            self.switch_to()
+            moderngl.init_context()  # a context per window: create_context() would look for GLX
+            self.ctx = moderngl.get_context()
+            self.renderer = Renderer(self.ctx)
+            self._last = time.perf_counter()
+            self.closed = False
+
+        # -- the loop
+        def on_draw(self) -> None:
+            now = time.perf_counter()
+            elapsed, self._last = now - self._last, now
+            self.viewer.stats.add_frame(elapsed * 1000.0)
+            self.viewer.advance(elapsed)
+            fb_size = self.get_framebuffer_size()
+            scale = fb_size[0] / max(1, self.width)  # HiDPI: framebuffer pixels per window unit
+            self.viewer.draw(self.renderer, fb_size, scale)
+            self.renderer.present(self.ctx.screen, fb_size)
+            error = self.ctx.error  # read (and so clear) it: pyglet's GL checks would trip on it
+            if error != "GL_NO_ERROR":
+                print(f"twig play: OpenGL reported {error}", file=sys.stderr)
+
+        def frame(self, elapsed: float | None = None) -> None:
+            """Process events and draw one frame by hand (for tests and ``--frames``).
+
+            ``elapsed`` overrides the wall time since the last frame (seconds)."""
+            if elapsed is not None:
+                self._last = time.perf_counter() - elapsed
+            pyglet.clock.tick()
+            self.switch_to()
+            self.dispatch_events()  # queued input, synthetic events included
+            if self.closed:
+                return
+            self.on_draw()  # directly: dispatch_event() would only queue it until the next frame
+            self.flip()
+
+        def read_frame(self) -> np.ndarray:
+            """The frame last drawn, (height, width, 3) uint8, top row first."""
+            return self.renderer.read_pixels()
+
+        # -- input
+        def on_key_press(self, symbol: int, modifiers: int):
+            if self.viewer.key_press(symbol, modifiers) == "quit":
+                self.close()
+            return True  # handled: keeps pyglet's default Esc handling out of the way
+
+        def on_key_release(self, symbol: int, modifiers: int) -> None:
+            self.viewer.key_release(symbol)
+
+        def on_mouse_drag(self, x, y, dx, dy, buttons, modifiers) -> None:
+            self.viewer.mouse_drag(dx, dy, buttons, modifiers, self.height, mouse)
+
+        def on_mouse_scroll(self, x, y, scroll_x, scroll_y) -> None:
+            self.viewer.scroll(scroll_y)
+
+        def on_resize(self, width: int, height: int) -> None:
+            pass  # the renderer follows get_framebuffer_size() every frame
+
+        def close(self) -> None:
+            if not self.closed:
+                self.closed = True
+                self.switch_to()
+                self.renderer.release()
+                self.viewer.close()
+            super().close()
+
+    _WINDOW_CLASS = PlayWindow
+    return PlayWindow
+
+
+def play(
+    source: str = "schoolyard",
+    seed: int = 0,
+    content: tuple | list = (),
+    size: tuple[int, int] = (1280, 720),
+    camera: CameraSpec | None = None,
+    paused: bool = False,
+    max_frames: int | None = None,
+    headless: bool = False,
+    screenshot_dir: str | Path = ".",
+) -> int:
+    """Open the window and run until it closes (or ``max_frames`` are drawn); return frames drawn."""
+    window = open_window(source, seed, content, size, camera, paused, headless, screenshot_dir)
+    if max_frames is None and not headless:
+        pyglet.app.run(interval=1 / 120)
+        return window.viewer.frames
+    limit = max_frames if max_frames is not None else 600
+    drawn = 0
+    try:
+        while drawn < limit and not window.closed:
+            window.frame()
+            drawn += 1
+    finally:
+        window.close()
+    return drawn
