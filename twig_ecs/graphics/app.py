@@ -375,7 +375,9 @@ def _window_class(window_module):
             self.switch_to()
             moderngl.init_context()  # a context per window: create_context() would look for GLX
             self.ctx = moderngl.get_context()
-            self.renderer = Renderer(self.ctx)
+            # Multisampling costs 2-3x on a software rasteriser: keep the window responsive there.
+            software = any(s in self.ctx.info["GL_RENDERER"] for s in ("llvmpipe", "softpipe"))
+            self.renderer = Renderer(self.ctx, samples=0 if software else 4)
             self._last = time.perf_counter()
             self.closed = False
 

@@ -33,6 +33,14 @@ SOLID_FLOATS = 11
 SHADOW_FLOATS = 12
 
 
+def ground_colour() -> tuple[float, float, float]:
+    """The flat ground's lit colour: the solid shader's lighting for a normal straight up."""
+    up = np.array([0.0, 1.0, 0.0])
+    ambient = np.array([0.62, 0.66, 0.72])
+    lit = np.array(GROUND) * (ambient + np.array([1.0, 0.97, 0.92]) * max(0.0, LIGHT_DIR @ up) * 0.55)
+    return tuple(float(c) for c in np.clip(lit, 0.0, 1.0))
+
+
 def capsule_mesh(segments: int = 16, half_rings: int = 6) -> tuple[np.ndarray, np.ndarray]:
     """A unit sphere split at its equator into two hemispheres (end 0 and end 1).
 
@@ -207,8 +215,8 @@ class Renderer:
         self.spheres = _Stream(ctx, SOLID_FLOATS)
         self.shadows = _Stream(ctx, SHADOW_FLOATS)
         inst = (SOLID_FLOATS, "3f 3f 1f 4f/i", "i_a", "i_b", "i_radius", "i_color")
-        self._capsule_vao = self._solid_vao(*capsule_mesh(16, 5), self.capsules.buffer, inst)
-        self._sphere_vao = self._solid_vao(*capsule_mesh(24, 8), self.spheres.buffer, inst)
+        self._capsule_vao = self._solid_vao(*capsule_mesh(12, 3), self.capsules.buffer, inst)
+        self._sphere_vao = self._solid_vao(*capsule_mesh(20, 6), self.spheres.buffer, inst)
         self._ground_vao = ctx.vertex_array(self.ground, [(quad, "2f", "in_pos")])
         self._shadow_vao = ctx.vertex_array(
             self.shadow,
@@ -283,17 +291,17 @@ class Renderer:
         viewproj = camera.view_projection(width / height).astype(np.float32)
         eye = camera.eye
         fog_end = max(60.0, camera.distance * 6.0)
+        uniforms = {"u_light_dir": tuple(LIGHT_DIR), "u_eye": tuple(eye), "u_sky": SKY,
+                    "u_fog_start": fog_end * 0.35, "u_fog_end": fog_end}  # fmt: skip
         for prog in (self.solid, self.ground):
             prog["u_viewproj"].write(viewproj.T.tobytes())
-            prog["u_light_dir"].value = tuple(LIGHT_DIR)
-            prog["u_eye"].value = tuple(eye)
-            prog["u_sky"].value = SKY
-            prog["u_fog_start"].value = fog_end * 0.35
-            prog["u_fog_end"].value = fog_end
+            for name, value in uniforms.items():
+                if name in prog:  # the compiler drops uniforms a program does not use
+                    prog[name].value = value
         self.shadow["u_viewproj"].write(viewproj.T.tobytes())
         self.ground["u_center"].value = (float(camera.target[0]), float(camera.target[2]))
         self.ground["u_extent"].value = fog_end * 1.2
-        self.ground["u_ground"].value = GROUND
+        self.ground["u_ground"].value = ground_colour()
 
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
@@ -339,14 +347,15 @@ class Renderer:
             fwd, left, up = face_frames(pos, faces, face_gaze)
             r = faces.radius[:, None]
             centre = pos[faces.head]
-            # Nose: a short capsule straight ahead; eyes: two dark spheres above it.
+            # Nose: a short capsule straight ahead; eyes: two dark dots above it (capsules
+            # with both ends at one point: small, so the coarser capsule mesh will do).
             caps.append(solid_instances(centre + 0.55 * r * fwd, centre + 1.22 * r * fwd - 0.12 * r * up,
                                         0.2 * faces.radius, faces.color))  # fmt: skip
             for side in (1.0, -1.0):
                 eye = centre + r * (0.8 * fwd + 0.36 * side * left + 0.22 * up)
                 dark = np.tile(EYE_COLOR, (len(eye), 1))
-                balls.append(solid_instances(eye, eye, 0.17 * faces.radius, dark))
-        capsule_rows = np.concatenate(caps)
+                caps.append(solid_instances(eye, eye, 0.17 * faces.radius, dark))
+        capsule_rows = np.concatenate(caps)  # visible links first: they cast the shadows
         self.capsules.write(capsule_rows)
         sphere_rows = np.concatenate(balls)
         self.spheres.write(sphere_rows)

@@ -1,6 +1,7 @@
 """GLSL 3.30 sources of the renderer's programs (capsules/spheres, ground, shadows, overlays).
 
-Colours from the YAML are sRGB; shading happens in linear light and is converted back.
+Shading works directly on the YAML's (sRGB) colours: no gamma conversions per pixel, which
+keep software rasterisers (Mesa llvmpipe on machines with no GPU) fast.
 """
 
 from __future__ import annotations
@@ -12,21 +13,23 @@ uniform vec3 u_sky;         // sRGB clear colour, also the fog colour
 uniform float u_fog_start;
 uniform float u_fog_end;
 
-vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
-vec3 to_srgb(vec3 c) { return pow(max(c, vec3(0.0)), vec3(1.0 / 2.2)); }
+float fog_amount(vec3 world) {
+    return smoothstep(u_fog_start, u_fog_end, length(world - u_eye));
+}
 
-vec3 shade(vec3 albedo_srgb, vec3 n, vec3 world, float occlusion) {
-    vec3 albedo = to_linear(albedo_srgb);
+vec3 shade(vec3 albedo, vec3 n, vec3 world, float occlusion) {
     vec3 v = normalize(u_eye - world);
     float diffuse = max(dot(n, u_light_dir), 0.0);
     // Hemisphere ambient: sky from above, warm ground bounce from below.
-    vec3 ambient = mix(vec3(0.20, 0.19, 0.17), vec3(0.42, 0.47, 0.55), n.y * 0.5 + 0.5);
+    vec3 ambient = mix(vec3(0.42, 0.40, 0.37), vec3(0.62, 0.66, 0.72), n.y * 0.5 + 0.5);
     vec3 h = normalize(u_light_dir + v);
-    float spec = pow(max(dot(n, h), 0.0), 32.0) * 0.18 * step(0.0, diffuse);
-    float rim = pow(1.0 - max(dot(n, v), 0.0), 3.0) * 0.12;
-    vec3 lit = albedo * (ambient * occlusion + vec3(1.0, 0.96, 0.9) * diffuse * 0.95) + spec + rim;
-    float fog = smoothstep(u_fog_start, u_fog_end, length(world - u_eye));
-    return mix(to_srgb(lit), u_sky, fog);
+    float s = max(dot(n, h), 0.0);
+    s *= s; s *= s; s *= s; s *= s;  // ^16
+    float spec = s * 0.22 * step(0.0, diffuse);
+    float r = 1.0 - max(dot(n, v), 0.0);
+    float rim = r * r * r * 0.10;
+    vec3 lit = albedo * (ambient * occlusion + vec3(1.0, 0.97, 0.92) * diffuse * 0.55) + spec + rim;
+    return mix(lit, u_sky, fog_amount(world));
 }
 """
 
@@ -94,7 +97,7 @@ void main() {
 GROUND_FRAGMENT = (
     """
 #version 330
-uniform vec3 u_ground;      // sRGB
+uniform vec3 u_ground;      // already lit (the ground is flat: one colour)
 in vec3 v_world;
 out vec4 f_color;
 """
@@ -117,7 +120,7 @@ void main() {
     float az = (1.0 - min(abs(p.x) / max(fwidth(p.x), 1e-5) / 1.5, 1.0)) * fade;
     albedo = mix(albedo, vec3(0.75, 0.35, 0.3), ax * 0.6);
     albedo = mix(albedo, vec3(0.3, 0.4, 0.75), az * 0.6);
-    f_color = vec4(shade(albedo, vec3(0.0, 1.0, 0.0), v_world, 1.0), 1.0);
+    f_color = vec4(mix(albedo, u_sky, fog_amount(v_world)), 1.0);
 }
 """
 )
