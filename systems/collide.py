@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 from numba import njit
-from twig_ecs.systems.constrain import constraint_args, node_weight, relax_once
+from twig_ecs.systems.constrain import constraint_args, node_weight, project_limits, project_links, relax_once
 
 from twig_ecs.store import NODE_IN_CONTACT
 from twig_ecs.system import System
@@ -22,6 +22,8 @@ from twig_ecs.system import System
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.
 BROAD_MARGIN = 0.05
+#: Closing passes of only joint limits and links after the contact rounds.
+FINAL_PASSES = 4
 #: Broad-phase grid cell edge (m): a limb or two long (measured: 0.75 beat 0.5 and 1.0).
 CELL_SIZE = 0.75
 
@@ -286,6 +288,10 @@ def solve_collisions(
             pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, it == 0, dt
         )
         relax_once(*cargs)
+    for _ in range(FINAL_PASSES):
+        # limits and links once more, last: the shape constraints we most want exact
+        project_limits(pos, cargs[2], flags, *cargs[12:23])
+        project_links(pos, inv_mass, flags, cargs[7], cargs[8], cargs[9], cargs[10], cargs[11])
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):

@@ -12,17 +12,11 @@ import math
 
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED
+from twig_ecs.store import LINK_OFF, LINK_ROPE, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED
 from twig_ecs.system import System
 
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
-#: A limb bent less than this (mid node's offset from the root-tip line, as a fraction
-#: of that line's length) counts as straight and is never corrected: the direction of
-#: so small a bend is noise, and chasing it makes resting bodies jitter and creep.
-STRAIGHT = 0.015
-#: Largest rotation (rad) one relaxation pass applies to a joint outside its limit.
-MAX_LIMIT_TURN = 0.35
 
 
 @njit(cache=True, inline="always")
@@ -35,8 +29,11 @@ def node_weight(inv_mass, flags, i):
 
 
 @njit(cache=True)
-def project_links(pos, inv_mass, flags, la, lb, rest, count):
-    """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o."""
+def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
+    """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o.
+
+    Ropes are only pulled back when longer than their length.
+    """
     for k in range(count):
         i = la[k]
         j = lb[k]
@@ -49,7 +46,7 @@ def project_links(pos, inv_mass, flags, la, lb, rest, count):
         oy = pos[i, 1] - pos[j, 1]
         oz = pos[i, 2] - pos[j, 2]
         length = math.sqrt(ox * ox + oy * oy + oz * oz)
-        if length < 1e-12:
+        if length < 1e-12 or lflags[k] & LINK_OFF or (lflags[k] & LINK_ROPE and length <= rest[k]):
             continue
         f = (length - rest[k]) / (length * w)
         pos[i, 0] -= wi * f * ox
@@ -60,13 +57,10 @@ def project_links(pos, inv_mass, flags, la, lb, rest, count):
         pos[j, 2] += wj * f * oz
 
 
-@njit(cache=True)
-def _wrap(angle):
-    while angle > math.pi:
-        angle -= 2.0 * math.pi
-    while angle < -math.pi:
-        angle += 2.0 * math.pi
-    return angle
+@njit(cache=True, inline="always")
+def _angle_gap(a, b):
+    """Unsigned angle (rad) between two directions given as angles."""
+    return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
 
 
 @njit(cache=True)
@@ -74,8 +68,8 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
                    n_limits):  # fmt: skip
     """One pass over hinge limits (knees, elbows).
 
-    The mid node is rotated about the root-tip line into the allowed arc, which keeps
-    both link lengths.
+    The mid node's bend (its offset from the root-tip line) must point within the arc
+    [arc_min, arc_max] (at most 180 degrees wide) around the reference direction.
     """
     for k in range(n_limits):
         r = root[k]
@@ -115,9 +109,6 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
         px = vx - va * ax
         py = vy - va * ay
         pz = vz - va * az
-        plen = math.sqrt(px * px + py * py + pz * pz)
-        if plen < STRAIGHT * an:
-            continue  # (nearly) straight: allowed; its bend direction is only noise
         ra = rx * ax + ry * ay + rz * az
         rx -= ra * ax
         ry -= ra * ay
@@ -136,25 +127,41 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
             sx = -sx
             sy = -sy
             sz = -sz
-        phi = math.atan2(px * sx + py * sy + pz * sz, px * rx + py * ry + pz * rz)
-        if arc_min[k] <= phi <= arc_max[k]:
+        # The allowed bends form a wedge around the limb line, between the half-planes
+        # through its edges at arc_min and arc_max. A bend past one edge is projected
+        # back onto that edge's plane: the correction is in proportion to the fault,
+        # so nearly straight limbs settle instead of flipping about.
+        pr = px * rx + py * ry + pz * rz
+        ps = px * sx + py * sy + pz * sz
+        n0r = -math.sin(arc_min[k])  # inward normals of the two edges
+        n0s = math.cos(arc_min[k])
+        n1r = math.sin(arc_max[k])
+        n1s = -math.cos(arc_max[k])
+        in0 = pr * n0r + ps * n0s
+        in1 = pr * n1r + ps * n1s
+        if in0 >= 0.0 and in1 >= 0.0:
             continue
-        # rotate towards the nearer end of the arc, at most MAX_LIMIT_TURN per pass: a
-        # knee found reversed is walked back over a few passes instead of jumping,
-        # which would fling the hip and foot (they take the reaction)
-        to_min = _wrap(arc_min[k] - phi)
-        to_max = _wrap(arc_max[k] - phi)
-        turn = to_min if abs(to_min) < abs(to_max) else to_max
-        turn = max(-MAX_LIMIT_TURN, min(MAX_LIMIT_TURN, turn))
-        phi += turn
-        c = math.cos(phi) * plen
-        s = math.sin(phi) * plen
-        dx = c * rx + s * sx - px
-        dy = c * ry + s * sy - py
-        dz = c * rz + s * sz - pz
+        if in0 < 0.0 and in1 < 0.0:
+            # bent right round the wrong way (a reversed knee): turn the bend about
+            # the limb line onto the nearer edge, which keeps both link lengths
+            plen = math.sqrt(pr * pr + ps * ps)
+            phi = math.atan2(ps, pr)
+            edge = arc_min[k] if _angle_gap(phi, arc_min[k]) < _angle_gap(phi, arc_max[k]) else arc_max[k]
+            dr = plen * math.cos(edge) - pr
+            ds = plen * math.sin(edge) - ps
+        elif in0 < 0.0:
+            # past one edge: back onto its plane, a move in proportion to the fault
+            dr = -in0 * n0r
+            ds = -in0 * n0s
+        else:
+            dr = -in1 * n1r
+            ds = -in1 * n1s
+        dx = dr * rx + ds * sx
+        dy = dr * ry + ds * sy
+        dz = dr * rz + ds * sz
         if flags[m] & NODE_LOCKED:
             continue
-        # The mid node turns onto the limit; the whole body takes the reaction as one
+        # The mid node moves onto the limit; the whole body takes the reaction as one
         # small uniform shift (which keeps every link length) so momentum is kept.
         total = 0.0
         for j in range(first[k], first[k] + span[k]):
@@ -225,7 +232,7 @@ def project_ground(pos, radius, flags, lock_pos, count):
 # fmt: off
 @njit(cache=True)
 def relax_once(pos, inv_mass, mass, flags, radius, lock_pos, n_nodes,
-               la, lb, rest, n_links,
+               la, lb, rest, lflags, n_links,
                root, mid, tip, frame, side, ref, arc_min, arc_max, first, span, n_limits,
                axle_a, axle_b, axle_radius, axle_height):
     """One relaxation pass: limits, axles, the ground, then links (and grab joints)."""
@@ -234,7 +241,7 @@ def relax_once(pos, inv_mass, mass, flags, radius, lock_pos, n_nodes,
                    first, span, n_limits)
     project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
     project_ground(pos, radius, flags, lock_pos, n_nodes)
-    project_links(pos, inv_mass, flags, la, lb, rest, n_links)
+    project_links(pos, inv_mass, flags, la, lb, rest, lflags, n_links)
 
 
 @njit(cache=True)
@@ -248,7 +255,7 @@ def constraint_args(state) -> tuple:
     """The store arrays :func:`relax_once` takes, in order."""
     n, lk, lim = state.nodes, state.links, state.limits
     return (n.pos, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
-            lk.a, lk.b, lk.rest, lk.count,
+            lk.a, lk.b, lk.rest, lk.flags, lk.count,
             lim.root, lim.mid, lim.tip, lim.frame, lim.side, lim.ref, lim.arc_min, lim.arc_max,
             lim.first, lim.span, lim.count,
             n.axle_a, n.axle_b, n.axle_radius, n.axle_height)

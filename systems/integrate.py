@@ -14,23 +14,10 @@ from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
 from twig_ecs.system import System
 
 
+# fmt: off
 @njit(cache=True)
-def integrate_nodes(
-    pos,
-    prev,
-    vel,
-    acc,
-    lock_pos,
-    inv_mass,
-    damp_air,
-    damp_ground,
-    damp_ref,
-    damp_rel,
-    flags,
-    count,
-    gravity,
-    dt,
-):
+def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air, damp_ground,
+                    damp_ref, damp_rel, move_time, move_gravity, flags, count, gravity, dt):
     """One Verlet step for every node, in place."""
     for i in range(count):
         for k in range(3):
@@ -45,19 +32,28 @@ def integrate_nodes(
                 acc[i, k] = 0.0
             continue
         d = damp_ground[i] if f & NODE_IN_CONTACT else damp_air[i]
-        ref = damp_ref[i]
         g = 1.0 if inv_mass[i] > 0.0 else 0.0
+        ref = damp_ref[i]
+        if move_time[i] > 0.0:
+            # a ballistic move flies open-loop: no damping; a straight one ignores gravity
+            move_time[i] = max(0.0, move_time[i] - dt)
+            d = 0.0
+            ref = -1
+            if move_gravity[i] == 0:
+                g = 0.0
         for k in range(3):
             v = vel[i, k]
             if ref >= 0:
                 # "muscle" damping: remove part of the velocity relative to ref
                 v -= damp_rel[i] * (v - vel[ref, k])
             # p(t+dt) = p(t) + (1-d)(p(t) - p(t-dt)) + a dt^2
-            new = pos[i, k] + (1.0 - d) * v + (acc[i, k] + g * gravity[k]) * dt2
+            a = acc[i, k] + ctrl_acc[i, k] + g * gravity[k]
+            new = pos[i, k] + (1.0 - d) * v + a * dt2
             prev[i, k] = pos[i, k]
             pos[i, k] = new
             acc[i, k] = 0.0
         flags[i] = f & ~np.uint32(NODE_IN_CONTACT)
+# fmt: on
 
 
 class IntegrateSystem(System):
@@ -69,19 +65,6 @@ class IntegrateSystem(System):
         """Integrate all nodes one step."""
         s = self.scene.state
         n = s.nodes
-        integrate_nodes(
-            n.pos,
-            n.prev,
-            n.vel,
-            n.acc,
-            n.lock_pos,
-            n.inv_mass,
-            n.damp_air,
-            n.damp_ground,
-            n.damp_ref,
-            n.damp_rel,
-            n.flags,
-            n.count,
-            self.scene.settings.gravity,
-            dt,
-        )
+        integrate_nodes(n.pos, n.prev, n.vel, n.acc, n.ctrl_acc, n.lock_pos, n.inv_mass, n.damp_air,
+                        n.damp_ground, n.damp_ref, n.damp_rel, n.move_time, n.move_gravity, n.flags,
+                        n.count, self.scene.settings.gravity, dt)  # fmt: skip

@@ -10,8 +10,10 @@ import numpy as np
 
 from twig_ecs.components import Body, Link, Name, Node, PainSensor
 from twig_ecs.store import (
+    LINK_BRACE,
     LINK_COLLIDE,
     LINK_NO_SELF,
+    LINK_ROPE,
     LINK_VISIBLE,
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
@@ -122,6 +124,7 @@ def spawn_body(
     # -- links
     links = state.links
     lrows = links.allocate(len(template.links))
+    groups = {g: k + 1 for k, g in enumerate(sorted({ln.self_group for ln in template.links} - {""}))}
     for k, spec in enumerate(template.links):
         j = lrows.start + k
         ia, ib = first + index[spec.a], first + index[spec.b]
@@ -135,7 +138,10 @@ def spawn_body(
             (LINK_VISIBLE if spec.visible else 0)
             | (LINK_COLLIDE if spec.collide else 0)
             | (0 if spec.self_collide else LINK_NO_SELF)
+            | (LINK_ROPE if spec.rope else 0)
+            | (LINK_BRACE if spec.brace else 0)
         )
+        links.group[j] = groups.get(spec.self_group, 0)
         links.body[j] = body
         links.color[j] = spec.color if spec.color is not None else body_color
         links.entity[j] = esper.create_entity(Link(j, body_entity, f"{spec.a}-{spec.b}"))

@@ -23,6 +23,9 @@ LINK_VISIBLE = 1  # drawn by the renderer
 LINK_COLLIDE = 2  # collides as a capsule of link_radius
 LINK_GRAB = 4  # a grab joint: zero-length link created at run time
 LINK_NO_SELF = 8  # never collides with its own body (torso parts that touch by design)
+LINK_ROPE = 16  # only resists stretching: a maximum distance (a rope), slack when shorter
+LINK_BRACE = 32  # a stiffener that holds only while its body is passive (not controlled)
+LINK_OFF = 64  # switched off: the solver ignores it (a brace of a controlled character)
 
 #: Array names of each block, with (dtype, trailing shape, fill value for new rows).
 NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
@@ -31,6 +34,9 @@ NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "acc": (np.float64, (3,), 0.0),  # accumulated acceleration for the next step (m/s^2)
     "vel": (np.float64, (3,), 0.0),  # displacement of the last step (m), scratch of integrate
     "lock_pos": (np.float64, (3,), 0.0),
+    "ctrl_acc": (np.float64, (3,), 0.0),  # acceleration held until changed (set_acceleration)
+    "move_time": (np.float64, (), 0.0),  # s left in a ballistic move: flies undamped meanwhile
+    "move_gravity": (np.uint8, (), 1),  # 1: the move is an arc under gravity; 0: a straight line
     "inv_mass": (np.float64, (), 0.0),
     "mass": (np.float64, (), 0.0),
     "radius": (np.float64, (), 0.0),  # contact radius against the ground and as a sphere
@@ -54,6 +60,7 @@ LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "rest": (np.float64, (), 0.0),
     "radius": (np.float64, (), 0.0),
     "flags": (np.uint32, (), 0),
+    "group": (np.int32, (), 0),  # self-collision group (0: collides with any link of its body)
     "body": (np.int32, (), -1),
     "entity": (np.int64, (), -1),  # esper entity of this link (or grab joint)
     "color": (np.float32, (4,), 1.0),
@@ -89,6 +96,37 @@ COLLIDER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     # Tactile sensing written by the collide kernel each step (SPEC 2):
     "hit_energy": (np.float64, (), 0.0),  # largest impact kinetic energy this step (J)
     "hit_by": (np.int32, (), -1),  # collider that delivered it
+}
+
+#: Body roles of a character's nodes, in the order of ``CHARACTER_FIELDS["nodes"]``.
+ROLES = ("pelvis", "spine", "neck", "head", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot",
+         "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_hand", "r_hand")  # fmt: skip
+
+#: One row per character: node indices by role and the controllers' state.
+CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
+    "body": (np.int32, (), -1),
+    "entity": (np.int64, (), -1),
+    "nodes": (np.int32, (len(ROLES),), -1),
+    "breath_links": (np.int32, (2,), -1),  # l_shoulder-spine, r_shoulder-spine link rows
+    "breath_rest": (np.float64, (2,), 0.0),  # their rest lengths without breathing
+    "scale": (np.float64, (), 1.0),  # body height / 1.75 m
+    "stand_height": (np.float64, (), 0.0),  # pelvis height when standing (m)
+    "mode": (np.int32, (), 0),  # posture: 0 stand, 1 sit, 2 rise (sitting up), 3 limp
+    "mode_time": (np.float64, (), 0.0),  # s spent in the current mode
+    "walk": (np.float64, (3,), 0.0),  # desired ground velocity of the pelvis (m/s)
+    "seat": (np.float64, (3,), 0.0),  # where the pelvis goes when sitting
+    "gaze_mode": (np.int32, (), 0),  # 0: direction of motion, 1: a point, 2: a node
+    "gaze_point": (np.float64, (3,), 0.0),
+    "gaze_node": (np.int32, (), -1),
+    "head_dir": (np.float64, (3,), 0.0),  # unit vector the face points along
+    "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): see systems/arms.py
+    "arm_point": (np.float64, (2, 3), 0.0),
+    "arm_node": (np.int32, (2,), -1),
+    "swing": (np.float64, (2,), 0.0),  # s left in each foot's step (0: planted)
+    "last_step": (np.int32, (), 1),  # foot that stepped last (0 left, 1 right)
+    "steps": (np.int64, (), 0),
+    "breath_phase": (np.float64, (), 0.0),
+    "gesture_phase": (np.float64, (), 0.0),
 }
 
 BODY_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
@@ -188,6 +226,7 @@ class PhysicsState:
         self.limits = Block(LIMIT_FIELDS)
         self.colliders = Block(COLLIDER_FIELDS)
         self.bodies = Block(BODY_FIELDS)
+        self.characters = Block(CHARACTER_FIELDS)
         self.version = 0
         #: Set when bodies spawn; the scene rebuilds the collider table before stepping.
         self.colliders_dirty = False
@@ -237,6 +276,12 @@ class PhysicsState:
             _remap(lim.arrays[name][: lim.count], node_map)
         _remap(lim.frame[: lim.count].reshape(-1), node_map)
         _remap(lim.body[: lim.count], body_map)
+        ch = self.characters
+        ch.keep(ch.body[: ch.count] != body)
+        _remap(ch.body[: ch.count], body_map)
+        for name in ("nodes", "arm_node", "gaze_node"):
+            _remap(ch.arrays[name][: ch.count].reshape(-1), node_map)
+        _remap(ch.breath_links[: ch.count].reshape(-1), link_map)
         self.rebuild_colliders()
         self.version += 1
         return {"nodes": node_map, "links": link_map, "bodies": body_map}
@@ -248,8 +293,9 @@ class PhysicsState:
 
         Within one body, two colliders never touch when they share a node or when a
         node of one is linked to a node of the other (neighbours through any link,
-        stiffeners included): such pairs are joints, not contacts. Bodies whose
-        ``self_collide`` is 0 never collide with themselves at all.
+        stiffeners included): such pairs are joints, not contacts. Links in different
+        self-collision groups of one body never meet either (arms pass legs), nor do
+        LINK_NO_SELF links, nor anything in bodies whose ``self_collide`` is 0.
         """
         self.colliders_dirty = False
         n, lk, col = self.nodes, self.links, self.colliders
@@ -267,6 +313,8 @@ class PhysicsState:
         # Neighbour sets from every non-grab link, for the self-collision masks.
         loner = np.zeros(total, dtype=bool)  # never collides with its own body
         loner[: len(link_rows)] = (lk.flags[link_rows] & LINK_NO_SELF) != 0
+        group = np.zeros(total, dtype=np.int32)  # within a body, groups only meet their own
+        group[: len(link_rows)] = lk.group[link_rows]
         # Neighbour sets from every non-grab link, for the self-collision masks.
         neighbours: dict[int, set[int]] = {}
         for a, b, f in zip(lk.a[: lk.count], lk.b[: lk.count], lk.flags[: lk.count], strict=True):
@@ -290,7 +338,8 @@ class PhysicsState:
                 )
                 mask = 0
                 for kk, j in enumerate(members):
-                    if kk == k or loner[j] or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
+                    apart = group[i] and group[j] and group[i] != group[j]
+                    if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
         self.version += 1
@@ -298,12 +347,19 @@ class PhysicsState:
     # -- read-outs ------------------------------------------------------------------
 
     def link_errors(self) -> np.ndarray:
-        """Relative length error |len - rest| / rest of every non-grab link with rest > 0."""
+        """Relative length error |len - rest| / rest of every non-grab link with rest > 0.
+
+        Ropes count only when stretched beyond their length.
+        """
         lk, pos = self.links, self.nodes.pos
-        sel = (lk.rest[: lk.count] > 0) & ((lk.flags[: lk.count] & LINK_GRAB) == 0)
+        flags = lk.flags[: lk.count]
+        sel = (lk.rest[: lk.count] > 0) & ((flags & (LINK_GRAB | LINK_OFF)) == 0)
         a, b = lk.a[: lk.count][sel], lk.b[: lk.count][sel]
-        length = np.linalg.norm(pos[a] - pos[b], axis=1)
-        return np.abs(length - lk.rest[: lk.count][sel]) / lk.rest[: lk.count][sel]
+        rest = lk.rest[: lk.count][sel]
+        error = (np.linalg.norm(pos[a] - pos[b], axis=1) - rest) / rest
+        rope = (flags[sel] & LINK_ROPE) != 0
+        error[rope] = np.maximum(error[rope], 0.0)
+        return np.abs(error)
 
     def momentum(self, nodes: np.ndarray | slice | None = None, dt: float = 1.0) -> np.ndarray:
         """Total linear momentum (kg m/s) of the given free nodes (default: all)."""

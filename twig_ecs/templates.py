@@ -49,7 +49,8 @@ TEMPLATE_KEYS = (
     "color",
 )
 NODE_KEYS = ("at", "mass", "radius", "locked", "lock_on_contact", "sphere", "damping", "muscle")
-LINK_KEYS = ("nodes", "radius", "visible", "collide", "self_collide", "length", "color")
+LINK_KEYS = ("nodes", "radius", "visible", "collide", "self_collide", "self_group", "length", "rope", "brace",
+             "color")  # fmt: skip
 LIMIT_KEYS = ("hinge", "frame", "side", "ref", "arc")
 DAMPING_KEYS = ("air", "ground")
 PAIN_KEYS = ("threshold", "half_life", "gain")
@@ -90,6 +91,9 @@ class LinkSpec:
     visible: bool
     collide: bool
     self_collide: bool  # may it collide with other links of its own body?
+    self_group: str  # if set, it meets only links of its body in the same group (or none)
+    rope: bool  # only a maximum distance: slack when the nodes are closer
+    brace: bool  # holds only while the body is passive; a character's control frees it
     length: float | None  # None: the distance between the nodes' ``at``
     color: tuple[float, float, float, float] | None
 
@@ -248,8 +252,15 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
                 f"nodes '{a}' and '{b}' are at the same place: give the link a length",
             )
         self_collide = read(spec, "self_collide", here, boolean, True)
+        self_group = read(spec, "self_group", here, text, "")
+        rope = read(spec, "rope", here, boolean, False)
+        brace = read(spec, "brace", here, boolean, False)
         link_color = read(spec, "color", here, color, None)
-        links.append(LinkSpec(a, b, radius, visible, collide, self_collide, length, link_color))
+        links.append(
+            LinkSpec(
+                a, b, radius, visible, collide, self_collide, self_group, rope, brace, length, link_color
+            )
+        )
 
     limits = []
     raw_limits = read(doc, "joint_limits", path, sequence, [])
@@ -265,8 +276,9 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
             fail(spec, "side", join(here, "side"), f"expected 'left' or 'right', got '{side_name}'")
         ref = read(spec, "ref", here, _pair, (1.0, 0.0))
         arc = read(spec, "arc", here, _pair)
-        if arc[0] > arc[1] or arc[0] < -180 or arc[1] > 180:
-            fail(spec, "arc", join(here, "arc"), "expected [min, max] degrees with -180 <= min <= max <= 180")
+        if arc[0] > arc[1] or arc[0] < -180 or arc[1] > 180 or arc[1] - arc[0] > 180:
+            fail(spec, "arc", join(here, "arc"),
+                 "expected [min, max] degrees, -180 <= min <= max <= 180, at most 180 apart")  # fmt: skip
         limits.append(
             LimitSpec(
                 root,
