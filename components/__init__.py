@@ -4,6 +4,7 @@ Hot numbers live in the :class:`~twig_ecs.store.PhysicsState` arrays; components
 which rows belong to which entity and carry authoring parameters.
 """
 
+from twig_ecs.components.character import Character
 from twig_ecs.components.physics import Body, GrabJoint, Link, Name, Node, PainSensor
 
-__all__ = ["Body", "GrabJoint", "Link", "Name", "Node", "PainSensor"]
+__all__ = ["Body", "Character", "GrabJoint", "Link", "Name", "Node", "PainSensor"]

@@ -1,12 +1,29 @@
 """Systems: esper processors run in the scene's named schedule, one per file.
 
 The physics systems (integrate, constrain, collide, sense) each make one call per step
-into a numba kernel that loops over the whole :class:`~twig_ecs.store.PhysicsState`.
+into a numba kernel that loops over the whole :class:`~twig_ecs.store.PhysicsState`;
+the character controllers (gait, gaze, posture, arms, respiration) likewise make one
+call each over the table of characters.
 """
 
+from twig_ecs.systems.arms import ArmsSystem
 from twig_ecs.systems.collide import CollideSystem
 from twig_ecs.systems.constrain import ConstrainSystem
+from twig_ecs.systems.gait import GaitSystem
+from twig_ecs.systems.gaze import GazeSystem
 from twig_ecs.systems.integrate import IntegrateSystem
+from twig_ecs.systems.posture import PostureSystem
+from twig_ecs.systems.respiration import RespirationSystem
 from twig_ecs.systems.sense import SenseSystem
 
-__all__ = ["CollideSystem", "ConstrainSystem", "IntegrateSystem", "SenseSystem"]
+__all__ = [
+    "ArmsSystem",
+    "CollideSystem",
+    "ConstrainSystem",
+    "GaitSystem",
+    "GazeSystem",
+    "IntegrateSystem",
+    "PostureSystem",
+    "RespirationSystem",
+    "SenseSystem",
+]

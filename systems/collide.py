@@ -274,12 +274,10 @@ def resolve_contacts(
 
 
 @njit(cache=True)
-def solve_collisions(
-    prev, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_col, iterations, dt, *cargs
-):
+def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_col, iterations, dt, *cargs):
     """Relaxation rounds of contacts then all other constraints (``cargs``: see
     :func:`~twig_ecs.systems.constrain.constraint_args`); returns the residual penetration."""
-    pos, inv_mass, flags = cargs[0], cargs[1], cargs[3]
+    pos, prev, inv_mass, flags = cargs[0], cargs[1], cargs[2], cargs[4]
     for c in range(n_col):
         hit_energy[c] = 0.0
         hit_by[c] = -1
@@ -290,8 +288,9 @@ def solve_collisions(
         relax_once(*cargs)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact
-        project_limits(pos, cargs[2], flags, *cargs[12:23])
-        project_links(pos, inv_mass, flags, cargs[7], cargs[8], cargs[9], cargs[10], cargs[11])
+        project_limits(pos, prev, inv_mass, flags, *cargs[13:22])
+        project_links(pos, inv_mass, flags, *cargs[8:13])
+    project_limits(pos, prev, inv_mass, flags, *cargs[13:22])  # limits have the last word
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):
@@ -342,7 +341,6 @@ class CollideSystem(System):
             s.pairs = np.zeros((2 * n_pairs, 2), dtype=np.int32)
             n_pairs = broad_phase(*args, s.pairs)
         s.stats[0] = solve_collisions(
-            n.prev,
             col.a,
             col.b,
             col.radius,

@@ -12,7 +12,14 @@ import math
 
 from numba import njit
 
-from twig_ecs.store import LINK_OFF, LINK_ROPE, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED
+from twig_ecs.store import (
+    LINK_OFF,
+    LINK_ROPE,
+    NODE_IN_CONTACT,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_MOVING,
+)
 from twig_ecs.system import System
 
 #: Distance (m) within which a node counts as touching the ground.
@@ -21,9 +28,9 @@ CONTACT_SLOP = 1e-3
 
 @njit(cache=True, inline="always")
 def node_weight(inv_mass, flags, i):
-    """Inverse mass of node i as constraints see it (0 while locked)."""
+    """Inverse mass of node i as constraints see it (0 while locked or on a ballistic move)."""
     f = flags[i]
-    if f & NODE_LOCKED:
+    if f & (NODE_LOCKED | NODE_MOVING):
         return 0.0
     return inv_mass[i]
 
@@ -57,6 +64,11 @@ def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
         pos[j, 2] += wj * f * oz
 
 
+#: A limb bent the wrong way by more than this (offset from its root-tip line, as a
+#: fraction of that line) is folded back round rather than straightened.
+REVERSED = 0.15
+
+
 @njit(cache=True, inline="always")
 def _angle_gap(a, b):
     """Unsigned angle (rad) between two directions given as angles."""
@@ -64,7 +76,7 @@ def _angle_gap(a, b):
 
 
 @njit(cache=True)
-def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, first, span,
+def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
                    n_limits):  # fmt: skip
     """One pass over hinge limits (knees, elbows).
 
@@ -141,14 +153,21 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
         in1 = pr * n1r + ps * n1s
         if in0 >= 0.0 and in1 >= 0.0:
             continue
-        if in0 < 0.0 and in1 < 0.0:
-            # bent right round the wrong way (a reversed knee): turn the bend about
-            # the limb line onto the nearer edge, which keeps both link lengths
-            plen = math.sqrt(pr * pr + ps * ps)
+        both = in0 < 0.0 and in1 < 0.0  # bent the wrong way round
+        plen = math.sqrt(pr * pr + ps * ps)
+        # a slight wrong-way bend goes straight (the nearest allowed shape); a deep one
+        # (a knee folded backwards) is turned about the limb line onto the nearer edge,
+        # keeping both link lengths - a repair of an old fault rather than a stop, so
+        # it moves prev too and adds no velocity
+        teleport = both and plen > REVERSED * an
+        if teleport:
             phi = math.atan2(ps, pr)
             edge = arc_min[k] if _angle_gap(phi, arc_min[k]) < _angle_gap(phi, arc_max[k]) else arc_max[k]
             dr = plen * math.cos(edge) - pr
             ds = plen * math.sin(edge) - ps
+        elif both:
+            dr = -pr
+            ds = -ps
         elif in0 < 0.0:
             # past one edge: back onto its plane, a move in proportion to the fault
             dr = -in0 * n0r
@@ -159,23 +178,36 @@ def project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, 
         dx = dr * rx + ds * sx
         dy = dr * ry + ds * sy
         dz = dr * rz + ds * sz
-        if flags[m] & NODE_LOCKED:
+        if teleport:
+            # a repair: the mid node is turned into place and keeps its velocity
+            if not flags[m] & (NODE_LOCKED | NODE_MOVING):
+                for q, d in ((0, dx), (1, dy), (2, dz)):
+                    pos[m, q] += d
+                    prev[m, q] += d
             continue
-        # The mid node moves onto the limit; the whole body takes the reaction as one
-        # small uniform shift (which keeps every link length) so momentum is kept.
-        total = 0.0
-        for j in range(first[k], first[k] + span[k]):
-            if not flags[j] & NODE_LOCKED:
-                total += mass[j]
-        share = mass[m] / total
-        pos[m, 0] += dx
-        pos[m, 1] += dy
-        pos[m, 2] += dz
-        for j in range(first[k], first[k] + span[k]):
-            if not flags[j] & NODE_LOCKED:
-                pos[j, 0] -= share * dx
-                pos[j, 1] -= share * dy
-                pos[j, 2] -= share * dz
+        # A stop, as a constraint between the mid node and the point of the root-tip
+        # line beside it (at alpha along it): the mid node moves one way, root and tip
+        # the other in proportion to alpha, all weighted by inverse mass - the moves are
+        # equal and opposite, so momentum is kept, and local, so nothing else is shaken.
+        alpha = min(1.0, max(0.0, va / an))
+        wm = node_weight(inv_mass, flags, m)
+        wr = node_weight(inv_mass, flags, r)
+        wt = node_weight(inv_mass, flags, t)
+        w = wm + (1.0 - alpha) ** 2 * wr + alpha**2 * wt
+        if w == 0.0:
+            continue
+        fm = wm / w
+        fr = (1.0 - alpha) * wr / w
+        ft = alpha * wt / w
+        pos[m, 0] += fm * dx
+        pos[m, 1] += fm * dy
+        pos[m, 2] += fm * dz
+        pos[r, 0] -= fr * dx
+        pos[r, 1] -= fr * dy
+        pos[r, 2] -= fr * dz
+        pos[t, 0] -= ft * dx
+        pos[t, 1] -= ft * dy
+        pos[t, 2] -= ft * dz
 
 
 @njit(cache=True)
@@ -231,14 +263,14 @@ def project_ground(pos, radius, flags, lock_pos, count):
 
 # fmt: off
 @njit(cache=True)
-def relax_once(pos, inv_mass, mass, flags, radius, lock_pos, n_nodes,
+def relax_once(pos, prev, inv_mass, mass, flags, radius, lock_pos, n_nodes,
                la, lb, rest, lflags, n_links,
-               root, mid, tip, frame, side, ref, arc_min, arc_max, first, span, n_limits,
+               root, mid, tip, frame, side, ref, arc_min, arc_max, n_limits,
                axle_a, axle_b, axle_radius, axle_height):
     """One relaxation pass: limits, axles, the ground, then links (and grab joints)."""
     # links last: they are the constraints we most want exact after a pass
-    project_limits(pos, mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
-                   first, span, n_limits)
+    project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
+                   n_limits)
     project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
     project_ground(pos, radius, flags, lock_pos, n_nodes)
     project_links(pos, inv_mass, flags, la, lb, rest, lflags, n_links)
@@ -254,10 +286,10 @@ def solve_constraints(iterations, *cargs):
 def constraint_args(state) -> tuple:
     """The store arrays :func:`relax_once` takes, in order."""
     n, lk, lim = state.nodes, state.links, state.limits
-    return (n.pos, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
+    return (n.pos, n.prev, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
             lk.a, lk.b, lk.rest, lk.flags, lk.count,
             lim.root, lim.mid, lim.tip, lim.frame, lim.side, lim.ref, lim.arc_min, lim.arc_max,
-            lim.first, lim.span, lim.count,
+            lim.count,
             n.axle_a, n.axle_b, n.axle_radius, n.axle_height)
 # fmt: on
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
 
 
@@ -35,8 +35,11 @@ def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air,
         g = 1.0 if inv_mass[i] > 0.0 else 0.0
         ref = damp_ref[i]
         if move_time[i] > 0.0:
-            # a ballistic move flies open-loop: no damping; a straight one ignores gravity
+            # a ballistic move flies open-loop: no damping, constraints do not push it
+            # (NODE_MOVING makes it kinematic to them); a straight one ignores gravity
             move_time[i] = max(0.0, move_time[i] - dt)
+            if move_time[i] == 0.0:
+                f &= ~np.uint32(NODE_MOVING)
             d = 0.0
             ref = -1
             if move_gravity[i] == 0:

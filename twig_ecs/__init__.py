@@ -9,10 +9,14 @@ Start with :class:`Scene`::
     print(scene.entity("parent").position)
 """
 
-from twig_ecs.errors import SceneError, ScheduleError, TwigError
-from twig_ecs.scene import Scene
-from twig_ecs.scenefile import Settings
-from twig_ecs.system import System
+from twig_ecs.kernels import configure_cache
+
+configure_cache()  # before any kernel module is imported
+
+from twig_ecs.errors import SceneError, ScheduleError, TwigError  # noqa: E402
+from twig_ecs.scene import Scene  # noqa: E402
+from twig_ecs.scenefile import Settings  # noqa: E402
+from twig_ecs.system import System  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = ["Scene", "SceneError", "ScheduleError", "Settings", "System", "TwigError", "__version__"]

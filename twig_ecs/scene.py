@@ -16,7 +16,8 @@ from pathlib import Path
 import esper
 import numpy as np
 
-from twig_ecs.components import Body, GrabJoint, Link, Name, Node
+from twig_ecs.character import CharacterHandle, make_character
+from twig_ecs.components import Body, Character, GrabJoint, Link, Name, Node
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.events import Event
 from twig_ecs.handles import BodyHandle
@@ -65,10 +66,17 @@ class Scene:
         self.schedule = Schedule()
         self._installed: list[System] | None = None
         self.activate()
-        from twig_ecs.systems import CollideSystem, ConstrainSystem, IntegrateSystem, SenseSystem
+        from twig_ecs import systems as s
 
-        for system in (IntegrateSystem(), ConstrainSystem(), CollideSystem(), SenseSystem()):
+        for system in (s.IntegrateSystem(), s.ConstrainSystem(), s.CollideSystem(), s.SenseSystem(),
+                       s.GaitSystem()):  # fmt: skip
             self.add_system(system)
+        # the low-level controllers sit with posture: gaze first (posture turns the
+        # shoulders after the face), then posture, arms and breathing
+        self.add_system(s.GazeSystem(), after="gait", before="posture")
+        self.add_system(s.PostureSystem())
+        self.add_system(s.ArmsSystem(), after="posture", before="render")
+        self.add_system(s.RespirationSystem(), after="arms", before="render")
 
     # -- construction -------------------------------------------------------------
 
@@ -92,25 +100,27 @@ class Scene:
         scene.source = plan.file
         for spec in plan.entities:
             scene._spawn_spec(spec)
+        for i, spec in enumerate(plan.entities):  # starting commands may name later entities
+            if spec.character is not None and spec.character.start:
+                try:
+                    scene.entity(spec.name).apply(spec.character.start)
+                except TwigError as exc:
+                    scene.close()  # nothing half-loaded
+                    doc = next(iter(spec.character.where.values()))
+                    file, line = doc.where()
+                    raise SceneError(str(exc), file, line, f"entities[{i}].character") from None
         return scene
 
     source: str | None = None
 
     def _spawn_spec(self, spec: EntitySpec) -> BodyHandle:
         self.activate()
-        entity = spawn_body(
-            self,
-            spec.template,
-            spec.name,
-            spec.position,
-            spec.facing,
-            spec.height,
-            spec.mass,
-            spec.color,
-            spec.pain,
-            spec.damping,
-        )
+        entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
+                            spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
         self._names[spec.name] = entity
+        if spec.character is not None:
+            make_character(self, entity, spec.facing, spec.character)
+            return CharacterHandle(self, entity, spec.name)
         return BodyHandle(self, entity, spec.name)
 
     def spawn(
@@ -173,6 +183,10 @@ class Scene:
             body.index = int(bodies[body.index])
             body.node_start = int(nodes[body.node_start])
             body.link_start = int(links[body.link_start]) if body.link_count else 0
+        live_grabs = {e for e, _ in esper.get_component(GrabJoint)}
+        for _, character in esper.get_component(Character):
+            character.index = int(remap["characters"][character.index])
+            character.holding = {h: g for h, g in character.holding.items() if g in live_grabs}
 
     # -- grab joints --------------------------------------------------------------------
 
@@ -209,6 +223,8 @@ class Scene:
         keep[joint.index] = False
         remap = links.keep(keep)
         esper.delete_entity(grab, immediate=True)
+        for _, character in esper.get_component(Character):
+            character.holding = {h: g for h, g in character.holding.items() if g != grab}
         for _, link in esper.get_component(Link):
             link.index = int(remap[link.index])
         for _, other in esper.get_component(GrabJoint):
@@ -296,8 +312,15 @@ class Scene:
             raise KeyError(f"no entity named '{name}'" + suggest(name, self._names)) from None
 
     def entity(self, name: str) -> BodyHandle:
-        """The handle of the entity called ``name`` (KeyError with suggestions if unknown)."""
-        return BodyHandle(self, self._entity_id(name), name)
+        """The handle of the entity called ``name`` (KeyError with suggestions if unknown).
+
+        Characters get a :class:`~twig_ecs.character.CharacterHandle` with the control API.
+        """
+        entity = self._entity_id(name)
+        self.activate()
+        if esper.has_component(entity, Character):
+            return CharacterHandle(self, entity, name)
+        return BodyHandle(self, entity, name)
 
     @property
     def entity_names(self) -> list[str]:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twig_ecs.character import CharacterSpec
 from twig_ecs.components import PainSensor
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.templates import (
@@ -40,7 +41,9 @@ from twig_ecs.yamldoc import YDict
 
 SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "entities")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy")
-ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping")
+ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
+               "character")  # fmt: skip
+CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold")
 
 
 @dataclass
@@ -65,6 +68,7 @@ class EntitySpec:
     color: tuple[float, float, float, float] | None = None
     pain: PainSensor | None | bool = True  # True: the template's own
     damping: Damping | None = None
+    character: CharacterSpec | None = None
 
 
 @dataclass
@@ -117,7 +121,71 @@ def read_entity(raw: YDict, path: str, library: ContentLibrary) -> EntitySpec:
         color=read(raw, "color", path, color, None),
         pain=pain,
         damping=read_damping(raw, "damping", path, None),
+        character=read_character(raw, path),
     )
+
+
+def _target(value):
+    """An entity name or a point [x, y, z]."""
+    if isinstance(value, str) and value.strip():
+        return value
+    try:
+        return vec3(value)
+    except ValueError:
+        raise ValueError("an entity name or a point [x, y, z]") from None
+
+
+def _walk(value):
+    """A ground velocity [x, z] or [x, y, z] in m/s."""
+    if isinstance(value, list) and len(value) == 2:
+        return (number(value[0]), 0.0, number(value[1]))
+    try:
+        return vec3(value)
+    except ValueError:
+        raise ValueError("a velocity [x, z] or [x, y, z] in m/s") from None
+
+
+def _seat(value):
+    """true (the ground) or the name of a seat entity."""
+    if value is True or (isinstance(value, str) and value.strip()):
+        return value
+    raise ValueError("true (sit on the ground) or the name of a seat entity")
+
+
+def _one_of(*names):
+    def read_name(value):
+        if value not in names:
+            raise ValueError("one of " + ", ".join(names))
+        return value
+
+    return read_name
+
+
+def read_character(raw: YDict, path: str) -> CharacterSpec | None:
+    """The ``character:`` key: true, or a mapping of settings and starting commands."""
+    if "character" not in raw or raw["character"] is False:
+        return None
+    if raw["character"] is True:
+        return CharacterSpec()
+    here = join(path, "character")
+    doc = read(raw, "character", path, mapping)
+    check_keys(doc, here, CHARACTER_KEYS)
+    kinds = {
+        "walk": _walk,
+        "look_at": _target,
+        "reach": _target,
+        "point_at": _target,
+        "hold": text,
+        "gesture": _one_of("wave"),
+        "pose": _one_of("hang", "grapple", "hug", "carry"),
+        "sit": _seat,
+    }
+    spec = CharacterSpec(max_speed=read(doc, "max_speed", here, positive, 6.0))
+    for key, kind in kinds.items():
+        if key in doc:
+            spec.start[key] = read(doc, key, here, kind)
+    spec.where = {key: doc for key in spec.start}  # for name checks once all entities are known
+    return spec
 
 
 def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
@@ -151,6 +219,17 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
             )
         seen[spec.name] = i
         entities.append(spec)
+    for i, spec in enumerate(entities):  # names in character commands must exist
+        if spec.character is None:
+            continue
+        for key, value in spec.character.start.items():
+            if isinstance(value, str) and key in ("look_at", "reach", "point_at", "hold", "sit"):
+                if value not in seen or value == spec.name:
+                    doc = spec.character.where[key]
+                    why = (
+                        "itself" if value == spec.name else f"unknown entity '{value}'" + suggest(value, seen)
+                    )
+                    fail(doc, key, f"entities[{i}].character.{key}", why)
     return ScenePlan(
         name=read(doc, "name", "", text, path.stem),
         file=str(path),

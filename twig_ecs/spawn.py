@@ -159,7 +159,6 @@ def spawn_body(
         limits.ref[j] = spec.ref
         limits.arc_min[j], limits.arc_max[j] = spec.arc
         limits.body[j] = body
-        limits.first[j], limits.span[j] = first, len(template.nodes)
 
     components = [
         Name(name),

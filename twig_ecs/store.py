@@ -17,6 +17,7 @@ NODE_LOCKED = 1  # held at node_lock_pos (static friction, fixed pivots)
 NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
 NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
 NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
+NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) until it ends
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer
@@ -79,8 +80,6 @@ LIMIT_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "ref": (np.float64, (2,), 0.0),  # 0-direction = ref[0] * forward + ref[1] * up
     "arc_min": (np.float64, (), 0.0),
     "arc_max": (np.float64, (), 0.0),
-    "first": (np.int32, (), -1),  # the body's node rows [first, first + span) share the
-    "span": (np.int32, (), 0),  # reaction, so the correction keeps the total momentum
     "body": (np.int32, (), -1),
 }
 
@@ -111,6 +110,7 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "breath_rest": (np.float64, (2,), 0.0),  # their rest lengths without breathing
     "scale": (np.float64, (), 1.0),  # body height / 1.75 m
     "stand_height": (np.float64, (), 0.0),  # pelvis height when standing (m)
+    "leg_length": (np.float64, (), 0.0),  # hip to foot, straight (m)
     "mode": (np.int32, (), 0),  # posture: 0 stand, 1 sit, 2 rise (sitting up), 3 limp
     "mode_time": (np.float64, (), 0.0),  # s spent in the current mode
     "walk": (np.float64, (3,), 0.0),  # desired ground velocity of the pelvis (m/s)
@@ -272,19 +272,19 @@ class PhysicsState:
         _remap(lk.a[: lk.count], node_map)
         _remap(lk.b[: lk.count], node_map)
         _remap(lk.body[: lk.count], body_map)
-        for name in ("root", "mid", "tip", "first"):
+        for name in ("root", "mid", "tip"):
             _remap(lim.arrays[name][: lim.count], node_map)
         _remap(lim.frame[: lim.count].reshape(-1), node_map)
         _remap(lim.body[: lim.count], body_map)
         ch = self.characters
-        ch.keep(ch.body[: ch.count] != body)
+        char_map = ch.keep(ch.body[: ch.count] != body)
         _remap(ch.body[: ch.count], body_map)
         for name in ("nodes", "arm_node", "gaze_node"):
             _remap(ch.arrays[name][: ch.count].reshape(-1), node_map)
         _remap(ch.breath_links[: ch.count].reshape(-1), link_map)
         self.rebuild_colliders()
         self.version += 1
-        return {"nodes": node_map, "links": link_map, "bodies": body_map}
+        return {"nodes": node_map, "links": link_map, "bodies": body_map, "characters": char_map}
 
     # -- colliders ----------------------------------------------------------------
 

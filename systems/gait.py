@@ -1,0 +1,142 @@
+"""gait: stepping (SPEC 3).
+
+Reads the character table (walk vector, posture mode, step timers) and foot, hip and
+pelvis nodes; writes foot and hand velocities (through ``prev``), node flags and move
+timers. A planted foot is locked (static friction: it never slides). When a foot has
+fallen far enough from where it belongs - behind its hip while walking, or off from
+under it when standing - and the other foot is planted, it is unlocked and sent on a
+ballistic arc to a point ahead of its hip in the walk direction, landing when the
+pelvis will be there; it locks again when it touches down. One foot steps at a time,
+in alternation, and the opposite hand swings forward with each step. Knees follow
+through the links and their joint limits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from twig_ecs.kernelmath import (
+    L_FOOT,
+    L_HAND,
+    L_HIP,
+    PELVIS,
+    R_HAND,
+    STAND,
+    clamp,
+)
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.system import System
+
+STEP_TIME = 0.34  # s a step takes at a walk
+RUN_STEP_TIME = 0.24  # s at a run (3 m/s and faster)
+STRIDE = 0.10  # m (at 1.75 m tall): how far behind its hip a foot may fall, at a crawl
+STRIDE_PER_SPEED = 0.12  # m more per m/s of walking speed
+REACH = 0.8  # of the longest step the legs allow at the pelvis's height
+STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
+ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
+
+
+# fmt: off
+@njit(cache=True)
+def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode, walk, swing, last_step,
+                 steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
+    """Plant, unlock and launch feet for every standing character."""
+    for c in range(n_chars):
+        nd = nodes[c]
+        for f in range(2):
+            swing[c, f] = max(0.0, swing[c, f] - dt)
+        if mode[c] != STAND:
+            continue
+        # plant: a foot on the ground that is not mid-step locks in place
+        for f in range(2):
+            i = nd[L_FOOT + f]
+            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED:
+                flags[i] |= NODE_LOCKED
+                flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
+                for k in range(3):
+                    prev[i, k] = pos[i, k]
+        if swing[c, 0] > 0.0 or swing[c, 1] > 0.0:
+            continue  # one foot at a time
+        wx = walk[c, 0]
+        wz = walk[c, 2]
+        speed = math.sqrt(wx * wx + wz * wz)
+        s = scale[c]
+        moving = speed > 0.01
+        dx = wx / speed if moving else 0.0
+        dz = wz / speed if moving else 0.0
+        # the longest step the legs allow: a leg of length L from a hip at height h
+        # reaches sqrt(L^2 - h^2) along the ground
+        hip_h = 0.5 * (pos[nd[L_HIP], 1] + pos[nd[L_HIP + 1], 1]) - radius[nd[L_FOOT]]
+        most = math.sqrt(max(0.0, leg_length[c] ** 2 - hip_h * hip_h))
+        reach = min(REACH * most, s * (STRIDE + STRIDE_PER_SPEED * speed))
+        t_step = STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)
+        # which foot is furthest from where it belongs?
+        best = -1
+        best_need = 0.0
+        for f in range(2):
+            i = nd[L_FOOT + f]
+            h = nd[L_HIP + f]
+            if not flags[i] & NODE_LOCKED:
+                continue
+            ex = pos[i, 0] - pos[h, 0]
+            ez = pos[i, 2] - pos[h, 2]
+            if moving:
+                need = -(ex * dx + ez * dz) - reach  # how far behind, past the trigger
+                # a foot off to the side (a turn) must step as well
+                side = abs(ex * dz - ez * dx) - STANCE_SLACK * s
+                need = max(need, side)
+            else:
+                need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
+            alternate = f != last_step[c] and need > 0.5 * best_need  # prefer the other foot
+            if need > 0.0 and (best < 0 or need > best_need or alternate):
+                best = f
+                best_need = need
+        if best < 0:
+            continue
+        # launch: land ahead of the hip where the pelvis will be when the step ends
+        i = nd[L_FOOT + best]
+        h = nd[L_HIP + best]
+        tx = pos[h, 0] + wx * t_step + dx * reach
+        tz = pos[h, 2] + wz * t_step + dz * reach
+        ty = radius[i]
+        flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
+        flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
+        move_time[i] = t_step
+        move_gravity[i] = 1
+        # ballistic: v0 = (target - p)/T - g T / 2 lands on target at T under gravity
+        prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_step - 0.5 * gravity[0] * t_step) * dt
+        prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_step - 0.5 * gravity[1] * t_step) * dt
+        prev[i, 2] = pos[i, 2] - ((tz - pos[i, 2]) / t_step - 0.5 * gravity[2] * t_step) * dt
+        swing[c, best] = t_step
+        last_step[c] = best
+        steps[c] += 1
+        # arm swing: the opposite hand forwards, this side's hand back
+        if moving:
+            for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
+                if arm_mode[c, hand - L_HAND] == 0:
+                    j = nd[hand]
+                    prev[j, 0] -= sign * ARM_SWING * wx * dt
+                    prev[j, 2] -= sign * ARM_SWING * wz * dt
+# fmt: on
+
+
+class GaitSystem(System):
+    """Steps the feet of every standing character towards its walk vector."""
+
+    name = "gait"
+
+    def process(self, dt: float) -> None:
+        """Plant, unlock and launch feet for this step."""
+        s = self.scene.state
+        ch, n = s.characters, s.nodes
+        if ch.count == 0:
+            return
+        control_gait(n.pos, n.prev, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes, ch.mode,
+                     ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
+                     ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+
+
+__all__ = ["GaitSystem", "PELVIS", "R_HAND"]

@@ -1,0 +1,196 @@
+"""posture: hold each character up, upright and turned the right way (SPEC 3).
+
+Reads the character table (mode, walk vector, seat, gaze direction) and node
+positions/velocities; writes node ``acc``. Proportional control on Cartesian targets,
+with a velocity term standing in for node damping:
+
+- standing: pelvis at standing height (y) and over the feet midpoint (x/z), or at the
+  walk velocity while walking; sitting: pelvis onto the seat; rising ("sitting up"):
+  shoulders over the feet while the pelvis climbs back to standing height;
+- upright: the shoulder centre over the pelvis, leaning a little into the walk;
+- yaw: opposite forces on the two sides of the pelvis turn it to the walk direction,
+  and on the two shoulders turn them to the gaze, at most 85 degrees from the pelvis.
+
+The torso, head and knees carry their own weight (gravity compensation, as muscles
+would); arms hang unless the arm controller holds them.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from twig_ecs.kernelmath import (
+    HEAD,
+    L_FOOT,
+    L_HIP,
+    L_KNEE,
+    L_SHOULDER,
+    LIMP,
+    NECK,
+    PELVIS,
+    R_FOOT,
+    R_HIP,
+    R_KNEE,
+    R_SHOULDER,
+    RISE,
+    SIT,
+    SPINE,
+    STAND,
+    clamp,
+    forward_xz,
+    yaw_error,
+)
+from twig_ecs.system import System
+
+HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
+BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
+WALK_GAIN = 8.0  # 1/s: pelvis velocity towards the walk vector
+UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
+YAW_GAIN, YAW_DAMP = 60.0, 14.0  # rad/s^2 per rad, per rad/s
+LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
+WALK_SINK = 0.035  # m of pelvis height per m/s of walking (at 1.75 m tall)
+MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
+RISE_TIME = 0.8  # s to stand up from sitting
+MAX_ACC = 80.0  # m/s^2: no controller pushes harder
+
+TORSO = (PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_SHOULDER, R_SHOULDER)
+LOWER = (PELVIS, SPINE, NECK, L_HIP, R_HIP)
+UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
+
+
+# fmt: off
+@njit(cache=True)
+def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, head_dir, stand_height,
+                    scale, n_chars, gravity, dt):
+    """Add posture accelerations for every character (see the module docstring)."""
+    for c in range(n_chars):
+        if mode[c] == LIMP:
+            continue
+        mode_time[c] += dt
+        if mode[c] == RISE and mode_time[c] > RISE_TIME:
+            mode[c] = STAND
+            mode_time[c] = 0.0
+        nd = nodes[c]
+        p = nd[PELVIS]
+        # gravity compensation: the torso, head and knees hold themselves up
+        for role in TORSO:
+            for k in range(3):
+                acc[nd[role], k] -= gravity[k]
+        for role in (L_KNEE, R_KNEE):
+            for k in range(3):
+                acc[nd[role], k] -= gravity[k]
+
+        vpx = (pos[p, 0] - prev[p, 0]) / dt
+        vpy = (pos[p, 1] - prev[p, 1]) / dt
+        vpz = (pos[p, 2] - prev[p, 2]) / dt
+        lf = nd[L_FOOT]
+        rf = nd[R_FOOT]
+        feet_x = 0.5 * (pos[lf, 0] + pos[rf, 0])
+        feet_z = 0.5 * (pos[lf, 2] + pos[rf, 2])
+        wx = walk[c, 0]
+        wz = walk[c, 2]
+        moving = wx * wx + wz * wz > 1e-4
+
+        # -- pelvis height and ground position
+        if mode[c] == SIT:
+            target_y = seat[c, 1]
+        elif mode[c] == RISE:
+            f = min(1.0, mode_time[c] / RISE_TIME)
+            target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
+        else:
+            # walking, the pelvis sinks a little so the legs can reach further
+            target_y = stand_height[c] - WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
+        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * vpy
+        if mode[c] == SIT:
+            ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
+            az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
+        elif moving and mode[c] == STAND:
+            ax = WALK_GAIN * (wx - vpx)
+            az = WALK_GAIN * (wz - vpz)
+        else:
+            ax = BALANCE_GAIN * (feet_x - pos[p, 0]) - BALANCE_DAMP * vpx
+            az = BALANCE_GAIN * (feet_z - pos[p, 2]) - BALANCE_DAMP * vpz
+        ax = clamp(ax, -MAX_ACC, MAX_ACC)
+        ay = clamp(ay, -MAX_ACC, MAX_ACC)
+        az = clamp(az, -MAX_ACC, MAX_ACC)
+        for role in TORSO:
+            i = nd[role]
+            acc[i, 0] += ax
+            acc[i, 1] += ay
+            acc[i, 2] += az
+
+        # -- upright: shoulder centre over the pelvis (over the feet when rising)
+        n = nd[NECK]
+        if mode[c] == RISE:
+            tx, tz = feet_x, feet_z
+        else:
+            tx = pos[p, 0] + LEAN * wx
+            tz = pos[p, 2] + LEAN * wz
+        vnx = (pos[n, 0] - prev[n, 0]) / dt - vpx
+        vnz = (pos[n, 2] - prev[n, 2]) / dt - vpz
+        ux = clamp(UPRIGHT_GAIN * (tx - pos[n, 0]) - UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
+        uz = clamp(UPRIGHT_GAIN * (tz - pos[n, 2]) - UPRIGHT_DAMP * vnz, -MAX_ACC, MAX_ACC)
+        m_up = mass[n] + mass[nd[L_SHOULDER]] + mass[nd[R_SHOULDER]] + mass[nd[HEAD]]
+        m_low = mass[p] + mass[nd[L_HIP]] + mass[nd[R_HIP]]
+        for role in (NECK, L_SHOULDER, R_SHOULDER, HEAD):
+            acc[nd[role], 0] += ux
+            acc[nd[role], 2] += uz
+        for role in (PELVIS, L_HIP, R_HIP):  # equal and opposite: a torque, no net push
+            acc[nd[role], 0] -= ux * m_up / m_low
+            acc[nd[role], 2] -= uz * m_up / m_low
+
+        # -- pelvis yaw to the walk direction (else hold still)
+        fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
+        width = math.sqrt((pos[nd[L_HIP], 0] - pos[nd[R_HIP], 0]) ** 2
+                          + (pos[nd[L_HIP], 2] - pos[nd[R_HIP], 2]) ** 2) + 1e-9
+        omega = (((pos[nd[R_HIP], 0] - prev[nd[R_HIP], 0]) - (pos[nd[L_HIP], 0] - prev[nd[L_HIP], 0])) * fx
+                 + ((pos[nd[R_HIP], 2] - prev[nd[R_HIP], 2]) - (pos[nd[L_HIP], 2] - prev[nd[L_HIP], 2])) * fz
+                 ) / (dt * width)
+        theta = 0.0
+        if moving and mode[c] == STAND:
+            sp = math.sqrt(wx * wx + wz * wz)
+            theta = yaw_error(fx, fz, wx / sp, wz / sp)
+        alpha = clamp(YAW_GAIN * theta - YAW_DAMP * omega, -60.0, 60.0)
+        for role in LOWER:
+            i = nd[role]
+            acc[i, 0] += alpha * (pos[i, 2] - pos[p, 2])
+            acc[i, 2] -= alpha * (pos[i, 0] - pos[p, 0])
+
+        # -- shoulder yaw towards the gaze, within MAX_TWIST of the pelvis
+        sx, sz = forward_xz(pos, nd[L_SHOULDER], nd[R_SHOULDER])
+        gx = head_dir[c, 0]
+        gz = head_dir[c, 2]
+        gn = math.sqrt(gx * gx + gz * gz)
+        want = 0.0
+        if gn > 1e-6:
+            want = clamp(yaw_error(fx, fz, gx / gn, gz / gn), -MAX_TWIST, MAX_TWIST)
+        twist = yaw_error(fx, fz, sx, sz)
+        ls = nd[L_SHOULDER]
+        rs = nd[R_SHOULDER]
+        swidth = math.sqrt((pos[ls, 0] - pos[rs, 0]) ** 2 + (pos[ls, 2] - pos[rs, 2]) ** 2) + 1e-9
+        somega = (((pos[rs, 0] - prev[rs, 0]) - (pos[ls, 0] - prev[ls, 0])) * sx
+                  + ((pos[rs, 2] - prev[rs, 2]) - (pos[ls, 2] - prev[ls, 2])) * sz) / (dt * swidth)
+        salpha = clamp(YAW_GAIN * (want - twist) - YAW_DAMP * (somega - omega), -60.0, 60.0)
+        for role in UPPER:
+            i = nd[role]
+            acc[i, 0] += salpha * (pos[i, 2] - pos[n, 2])
+            acc[i, 2] -= salpha * (pos[i, 0] - pos[n, 0])
+# fmt: on
+
+
+class PostureSystem(System):
+    """Standing, sitting and rising; upright torso; pelvis and shoulder yaw."""
+
+    name = "posture"
+
+    def process(self, dt: float) -> None:
+        """Add this step's posture accelerations."""
+        s = self.scene.state
+        ch, n = s.characters, s.nodes
+        if ch.count == 0:
+            return
+        control_posture(n.pos, n.prev, n.acc, n.mass, ch.nodes, ch.mode, ch.mode_time, ch.walk, ch.seat,
+                        ch.head_dir, ch.stand_height, ch.scale, ch.count, self.scene.settings.gravity,
+                        dt)  # fmt: skip

@@ -1,0 +1,415 @@
+"""Characters: bodies that stand, walk, look, reach, grab, gesture, sit and breathe.
+
+:func:`make_character` turns a spawned humanoid-like body into a character (a row of
+the store's character table plus a :class:`~twig_ecs.components.Character`
+component). :class:`CharacterHandle` is the Python API a drama manager or a behaviour
+uses; every call only sets controller targets, which the controller systems (gait,
+gaze, posture, arms, respiration) act on in the next steps.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Body, Character, GrabJoint
+from twig_ecs.errors import SceneError, TwigError
+from twig_ecs.handles import BodyHandle
+from twig_ecs.kernelmath import LIMP, RISE, SIT, STAND
+from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCKED, ROLES
+from twig_ecs.systems.arms import ARM_MODES, CARRY, HANG, POINT, REACH, WAVE
+from twig_ecs.validate import LIMIT, suggest
+
+if TYPE_CHECKING:
+    from twig_ecs.scene import Scene
+
+HANDS = {"left": (0,), "right": (1,), "both": (0, 1)}
+POSTURES = {STAND: "stand", SIT: "sit", RISE: "rise", LIMP: "limp"}
+GESTURES = ("wave", "point")
+#: Height (m) of the reference humanoid; characters scale their gait by height / this.
+REFERENCE_HEIGHT = 1.75
+#: Standing pelvis height as a fraction of the template's: knees slightly bent.
+STANCE = 0.96
+#: Farthest a hand may be from what it grabs (m, at reference height).
+GRAB_REACH = 0.3
+
+
+@dataclass
+class CharacterSpec:
+    """How a scene makes a body a character, and what it starts doing."""
+
+    max_speed: float = 6.0
+    start: dict[str, Any] = field(default_factory=dict)  # initial commands: walk, look_at...
+    where: dict[str, Any] = field(default_factory=dict)  # YAML mapping of each command, for errors
+
+
+def make_character(scene: Scene, entity: int, facing: float, spec: CharacterSpec) -> int:
+    """Give the body ``entity`` a character row and component; returns the row."""
+    body = esper.component_for_entity(entity, Body)
+    missing = [r for r in ROLES if r not in body.node_names]
+    if missing:
+        raise SceneError(f"a character needs a body with the humanoid's nodes; '{body.template}' lacks "
+                         + ", ".join(missing))  # fmt: skip
+    state = scene.state
+    ch, links = state.characters, state.links
+    row = ch.allocate(1).start
+    ch.body[row] = body.index
+    ch.entity[row] = entity
+    ch.nodes[row] = [body.node_index(r) for r in ROLES]
+    ch.scale[row] = body.height / REFERENCE_HEIGHT
+    pelvis = state.nodes.pos[ch.nodes[row, 0]]
+    lowest = state.nodes.pos[body.node_start : body.node_start + len(body.node_names), 1].min()
+    lowest -= state.nodes.radius[ch.nodes[row, ROLES.index("l_foot")]]
+    ch.stand_height[row] = (pelvis[1] - lowest) * STANCE
+    pos = state.nodes.pos
+    hip, knee, foot = (body.node_index(n) for n in ("l_hip", "l_knee", "l_foot"))
+    ch.leg_length[row] = np.linalg.norm(pos[hip] - pos[knee]) + np.linalg.norm(pos[knee] - pos[foot])
+    ch.mode[row] = STAND
+    a = math.radians(facing)
+    ch.head_dir[row] = (math.sin(a), 0.0, math.cos(a))
+    rows = range(body.link_start, body.link_start + body.link_count)
+    spine = body.node_index("spine")
+    for k, shoulder in enumerate(("l_shoulder", "r_shoulder")):
+        s = body.node_index(shoulder)
+        for j in rows:
+            if {int(links.a[j]), int(links.b[j])} == {s, spine}:
+                ch.breath_links[row, k] = j
+                ch.breath_rest[row, k] = links.rest[j]
+    _set_braces(scene, body, on=False)
+    esper.add_component(entity, Character(row, max_speed=spec.max_speed))
+    return row
+
+
+def _set_braces(scene: Scene, body: Body, on: bool) -> None:
+    """Switch a body's brace links on (passive) or off (under control)."""
+    flags = scene.state.links.flags[body.link_start : body.link_start + body.link_count]
+    braces = (flags & LINK_BRACE) != 0
+    if on:
+        flags[braces] &= np.uint32(~LINK_OFF & 0xFFFFFFFF)
+    else:
+        flags[braces] |= LINK_OFF
+
+
+def _vector(value: Any, what: str, size: int = 3) -> np.ndarray:
+    """A finite 2- or 3-vector from user input, or a TwigError naming ``what``."""
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TwigError(f"{what} must be a list of numbers, got {value!r}") from None
+    if v.size == 2 and size == 3:
+        v = np.array([v[0], 0.0, v[1]])  # [x, z] on the ground
+    if v.size != size or not np.all(np.isfinite(v)) or np.abs(v).max(initial=0) > LIMIT:
+        raise TwigError(f"{what} must be {size} finite numbers (at most {LIMIT:g} in size), got {value!r}")
+    return v
+
+
+class CharacterHandle(BodyHandle):
+    """A character: the body read-outs plus the control API of SPEC 3.
+
+    Targets are points ``(x, y, z)`` in metres or entity names (then a node of that
+    entity is tracked: its ``centre``, ``spine`` or the node nearest its middle).
+    """
+
+    # -- internals ---------------------------------------------------------------------
+
+    @property
+    def character(self) -> Character:
+        """The Character component."""
+        self.scene.activate()
+        return esper.component_for_entity(self.entity, Character)
+
+    @property
+    def _crow(self) -> int:
+        """Row in the character table."""
+        return self.character.index
+
+    def _chars(self):
+        return self.scene.state.characters
+
+    def _role(self, role: str) -> int:
+        return int(self._chars().nodes[self._crow, ROLES.index(role)])
+
+    def _hands(self, hand: str) -> tuple[int, ...]:
+        try:
+            return HANDS[hand]
+        except KeyError:
+            raise TwigError(f"hand must be 'left', 'right' or 'both', got {hand!r}") from None
+
+    def _target_node(self, target: str, node: str | None = None) -> int:
+        """Row of the node tracked for an entity target."""
+        if target == self.name:
+            raise TwigError(f"'{self.name}' cannot target itself")
+        try:
+            other = self.scene.entity(target)
+        except KeyError as exc:
+            raise TwigError(str(exc.args[0])) from None
+        names = other.node_names
+        if node is not None:
+            if node not in names:
+                raise TwigError(f"'{target}' has no node '{node}'" + suggest(node, names))
+            return other.body.node_index(node)
+        for preferred in ("centre", "spine"):
+            if preferred in names:
+                return other.body.node_index(preferred)
+        pos = other.node_positions
+        return other.body.node_start + int(np.argmin(np.linalg.norm(pos - pos.mean(axis=0), axis=1)))
+
+    # -- read-outs -----------------------------------------------------------------------
+
+    @property
+    def position(self) -> np.ndarray:
+        """Pelvis centre (m)."""
+        return self.scene.state.nodes.pos[self._role("pelvis")].copy()
+
+    @property
+    def facing(self) -> np.ndarray:
+        """Unit ground-plane vector the pelvis faces: (left hip - right hip) x up."""
+        pos = self.scene.state.nodes.pos
+        left = pos[self._role("l_hip")] - pos[self._role("r_hip")]
+        f = np.array([-left[2], 0.0, left[0]])
+        return f / (np.linalg.norm(f) or 1.0)
+
+    @property
+    def shoulder_facing(self) -> np.ndarray:
+        """Unit ground-plane vector the shoulders face."""
+        pos = self.scene.state.nodes.pos
+        left = pos[self._role("l_shoulder")] - pos[self._role("r_shoulder")]
+        f = np.array([-left[2], 0.0, left[0]])
+        return f / (np.linalg.norm(f) or 1.0)
+
+    @property
+    def head_direction(self) -> np.ndarray:
+        """Unit vector the face points along."""
+        return self._chars().head_dir[self._crow].copy()
+
+    @property
+    def gaze_target(self) -> np.ndarray | None:
+        """The point being looked at (None when looking where it goes)."""
+        ch, row = self._chars(), self._crow
+        if ch.gaze_mode[row] == 1:
+            return ch.gaze_point[row].copy()
+        if ch.gaze_mode[row] == 2 and ch.gaze_node[row] >= 0:
+            return self.scene.state.nodes.pos[ch.gaze_node[row]].copy()
+        return None
+
+    @property
+    def holding(self) -> dict[str, str]:
+        """What each hand holds: {"right": "ball"}."""
+        out = {}
+        for hand, grab in self.character.holding.items():
+            joint = esper.try_component(grab, GrabJoint)
+            if joint is not None:
+                out[hand] = self.scene.name_of(joint.held) or str(joint.held)
+        return out
+
+    @property
+    def posture(self) -> str:
+        """ "stand", "sit", "rise" (getting up) or "limp"."""
+        return POSTURES[int(self._chars().mode[self._crow])]
+
+    @property
+    def walk_velocity(self) -> np.ndarray:
+        """The walk vector it is following (m/s)."""
+        return self._chars().walk[self._crow].copy()
+
+    @property
+    def steps(self) -> int:
+        """Steps taken so far."""
+        return int(self._chars().steps[self._crow])
+
+    @property
+    def arm_modes(self) -> dict[str, str]:
+        """What each arm is doing: hang, reach, grapple, hug, wave, point or carry."""
+        names = {v: k for k, v in ARM_MODES.items()}
+        modes = self._chars().arm_mode[self._crow]
+        return {"left": names[int(modes[0])], "right": names[int(modes[1])]}
+
+    # -- locomotion ----------------------------------------------------------------------
+
+    def walk(self, velocity: Sequence[float]) -> None:
+        """Walk with this ground velocity, (x, z) or (x, y, z) in m/s (y is ignored).
+
+        A sitting character stands up first.
+        """
+        v = _vector(velocity, "walk velocity")
+        v[1] = 0.0
+        speed = float(np.linalg.norm(v))
+        limit = self.character.max_speed
+        if speed > limit:
+            raise TwigError(f"walk speed {speed:.2f} m/s is more than '{self.name}' can do ({limit} m/s)")
+        self._chars().walk[self._crow] = v
+        if self.posture == "sit":
+            self.stand()
+
+    def stop(self) -> None:
+        """Stand still (the feet settle under the hips)."""
+        self._chars().walk[self._crow] = 0.0
+
+    def sit(self, on: str | None = None) -> None:
+        """Sit down: on the ground here, or on the seat entity ``on`` (stand next to it first)."""
+        ch, row, n = self._chars(), self._crow, self.scene.state.nodes
+        pelvis = n.pos[self._role("pelvis")]
+        if on is None:
+            seat = np.array([pelvis[0], n.radius[self._role("pelvis")], pelvis[2]])
+        else:
+            seat_body = self.scene.entity(on) if on != self.name else None
+            if seat_body is None:
+                raise TwigError(f"'{self.name}' cannot sit on itself")
+            pos = seat_body.node_positions
+            rows = slice(seat_body.body.node_start, seat_body.body.node_start + len(pos))
+            top = float((pos[:, 1] + n.radius[rows]).max())
+            nearest = pos[np.argmin(np.linalg.norm((pos - pelvis)[:, [0, 2]], axis=1))]
+            seat = np.array([nearest[0], top + n.radius[self._role("l_hip")], nearest[2]])
+        ch.seat[row] = seat
+        ch.walk[row] = 0.0
+        ch.mode[row] = SIT
+        ch.mode_time[row] = 0.0
+
+    def stand(self) -> None:
+        """Stand up (from sitting: lean over the feet, then rise; from limp: at once)."""
+        ch, row = self._chars(), self._crow
+        if ch.mode[row] == SIT:
+            ch.seat[row] = self.scene.state.nodes.pos[self._role("pelvis")]
+            ch.mode[row] = RISE
+        elif ch.mode[row] == LIMP:
+            _set_braces(self.scene, self.body, on=False)
+            ch.mode[row] = STAND
+        ch.mode_time[row] = 0.0
+
+    def go_limp(self) -> None:
+        """Stop all control: the body falls as a ragdoll until :meth:`stand`."""
+        ch, row, n = self._chars(), self._crow, self.scene.state.nodes
+        ch.mode[row] = LIMP
+        ch.walk[row] = 0.0
+        ch.arm_mode[row] = HANG
+        for foot in ("l_foot", "r_foot"):
+            n.flags[self._role(foot)] &= np.uint32(~(NODE_LOCKED | NODE_LOCK_ON_CONTACT) & 0xFFFFFFFF)
+        _set_braces(self.scene, self.body, on=True)
+
+    # -- gaze ----------------------------------------------------------------------------
+
+    def look_at(self, target: str | Sequence[float] | None, node: str | None = None) -> None:
+        """Face a point or an entity (tracked as it moves); None: look where it goes."""
+        ch, row = self._chars(), self._crow
+        if target is None:
+            ch.gaze_mode[row] = 0
+        elif isinstance(target, str):
+            ch.gaze_node[row] = self._target_node(target, node)
+            ch.gaze_mode[row] = 2
+        else:
+            ch.gaze_point[row] = _vector(target, "look-at point")
+            ch.gaze_mode[row] = 1
+
+    # -- arms ----------------------------------------------------------------------------
+
+    def _aim(self, hands: tuple[int, ...], mode: int, target: Any, node: str | None) -> None:
+        ch, row = self._chars(), self._crow
+        for h in hands:
+            if isinstance(target, str):
+                ch.arm_node[row, h] = self._target_node(target, node)
+            else:
+                ch.arm_node[row, h] = -1
+                ch.arm_point[row, h] = _vector(target, "target point")
+            ch.arm_mode[row, h] = mode
+
+    def reach(self, target: str | Sequence[float], hand: str = "right", node: str | None = None) -> None:
+        """Reach a hand (or ``"both"``) towards a point or an entity."""
+        self._aim(self._hands(hand), REACH, target, node)
+
+    def pose(self, name: str, hand: str = "both") -> None:
+        """Hold the arms in a pose: ``hang`` (relaxed), ``grapple``, ``hug`` or ``carry``."""
+        if name not in ("hang", "grapple", "hug", "carry"):
+            raise TwigError(f"unknown arm pose '{name}'" + suggest(name, ("hang", "grapple", "hug", "carry")))
+        ch, row = self._chars(), self._crow
+        for h in self._hands(hand):
+            ch.arm_mode[row, h] = ARM_MODES[name]
+
+    def gesture(
+        self, name: str | None, target: str | Sequence[float] | None = None, hand: str = "right"
+    ) -> None:
+        """Make a gesture with one hand: ``wave``, ``point`` (at ``target``), or None to stop."""
+        hands = self._hands(hand)
+        if name is None:
+            self.pose("hang", hand)
+        elif name == "wave":
+            for h in hands:
+                self._chars().arm_mode[self._crow, h] = WAVE
+        elif name == "point":
+            if target is None:
+                raise TwigError("gesture 'point' needs a target (an entity name or a point)")
+            self._aim(hands, POINT, target, None)
+        else:
+            raise TwigError(f"unknown gesture '{name}'" + suggest(str(name), GESTURES))
+
+    def grab(self, target: str, hand: str = "right", node: str | None = None) -> None:
+        """Hold ``target`` in a hand with a ball joint (the hand must be near it: reach first).
+
+        The nearest node of the target is taken unless ``node`` names one. A hand that
+        holds something keeps it in front of the body (carry) until released.
+        """
+        (h,) = self._hands(hand) if hand != "both" else (None,)
+        if h is None:
+            raise TwigError("grab takes one hand: 'left' or 'right'")
+        hand_name = ("left", "right")[h]
+        if hand_name in self.character.holding:
+            raise TwigError(
+                f"'{self.name}' already holds something in the {hand_name} hand; release it first"
+            )
+        hand_row = self._role(("l_hand", "r_hand")[h])
+        other = self.scene.entity(target) if target != self.name else None
+        if other is None:
+            raise TwigError(f"'{self.name}' cannot grab itself")
+        hand_pos = self.scene.state.nodes.pos[hand_row]
+        if node is None:
+            pos = other.node_positions
+            k = int(np.argmin(np.linalg.norm(pos - hand_pos, axis=1)))
+            node = other.node_names[k]
+        distance = float(np.linalg.norm(other.node(node) - hand_pos))
+        reach = GRAB_REACH * self._chars().scale[self._crow]
+        if distance > reach:
+            raise TwigError(f"'{target}' is {distance:.2f} m from the {hand_name} hand of '{self.name}' "
+                            f"(grabbing needs {reach:.2f} m or less): reach for it first")  # fmt: skip
+        grab = self.scene.grab(self.name, ("l_hand", "r_hand")[h], target, node)
+        self.character.holding[hand_name] = grab
+        ch = self._chars()
+        if ch.arm_mode[self._crow, h] in (HANG, REACH):
+            ch.arm_mode[self._crow, h] = CARRY
+
+    def release(self, hand: str | None = None) -> None:
+        """Let go with one hand, or both (None); the arm relaxes."""
+        hands = (0, 1) if hand is None else self._hands(hand)
+        for h in hands:
+            hand_name = ("left", "right")[h]
+            grab = self.character.holding.pop(hand_name, None)
+            if grab is not None:
+                self.scene.release(grab)
+            self._chars().arm_mode[self._crow, h] = HANG
+
+    # -- starting commands from YAML ---------------------------------------------------------
+
+    def apply(self, commands: dict[str, Any]) -> None:
+        """Run the ``character:`` commands of a scene file (walk, look_at, reach...)."""
+        for key, value in commands.items():
+            if key == "walk":
+                self.walk(value)
+            elif key == "look_at":
+                self.look_at(value)
+            elif key == "reach":
+                self.reach(value)
+            elif key == "gesture":
+                self.gesture(value)
+            elif key == "point_at":
+                self.gesture("point", value)
+            elif key == "pose":
+                self.pose(value)
+            elif key == "sit":
+                self.sit(None if value is True else value)
+            elif key == "hold":
+                self.grab(value)
+            else:  # pragma: no cover - the loader only passes known keys
+                raise TwigError(f"unknown character command '{key}'")

@@ -1,0 +1,40 @@
+"""Small numba helpers shared by the character controllers (scalar 3-vector math).
+
+Controllers index a character's nodes by role through ``nodes[c, ROLE]``; the role
+numbers below follow :data:`twig_ecs.store.ROLES`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_KNEE, R_KNEE = 0, 1, 2, 3, 4, 5, 6, 7
+L_FOOT, R_FOOT, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND = 8, 9, 10, 11, 12, 13, 14, 15
+
+# posture modes (CHARACTER_FIELDS["mode"])
+STAND, SIT, RISE, LIMP = 0, 1, 2, 3
+
+
+@njit(cache=True, inline="always")
+def forward_xz(pos, left, right):
+    """Unit ground-plane forward of a left/right node pair: (left - right) x up."""
+    lx = pos[left, 0] - pos[right, 0]
+    lz = pos[left, 2] - pos[right, 2]
+    n = math.sqrt(lx * lx + lz * lz)
+    if n < 1e-9:
+        return 0.0, 1.0
+    return -lz / n, lx / n
+
+
+@njit(cache=True, inline="always")
+def yaw_error(fx, fz, dx, dz):
+    """Signed angle (rad) turning ground direction f onto d about +y (+: towards +x from +z)."""
+    return math.atan2(fz * dx - fx * dz, fx * dx + fz * dz)
+
+
+@njit(cache=True, inline="always")
+def clamp(x, lo, hi):
+    """x limited to [lo, hi]."""
+    return lo if x < lo else (hi if x > hi else x)
