@@ -26,6 +26,7 @@ from twig_ecs.kernelmath import (
     R_HAND,
     STAND,
     clamp,
+    forward_xz,
 )
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
@@ -36,6 +37,7 @@ STRIDE = 0.10  # m (at 1.75 m tall): how far behind its hip a foot may fall, at 
 STRIDE_PER_SPEED = 0.12  # m more per m/s of walking speed
 REACH = 0.8  # of the longest step the legs allow at the pelvis's height
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
+STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -53,6 +55,9 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
         # plant: a foot on the ground that is not mid-step locks in place
         for f in range(2):
             i = nd[L_FOOT + f]
+            if flags[i] & NODE_LOCKED and move_time[i] > 0.0:  # landed early
+                move_time[i] = 0.0
+                flags[i] &= ~np.uint32(NODE_MOVING)
             if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED:
                 flags[i] |= NODE_LOCKED
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
@@ -83,6 +88,10 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
                 continue
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
+            # a leg close to straight must step whatever else: a locked foot at the end
+            # of a straight leg would hold the hip back like a rope
+            ey = pos[i, 1] - pos[h, 1]
+            stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * leg_length[c]
             if moving:
                 need = -(ex * dx + ez * dz) - reach  # how far behind, past the trigger
                 # a foot off to the side (a turn) must step as well
@@ -90,17 +99,33 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
                 need = max(need, side)
             else:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
+            need = max(need, stretch)
             alternate = f != last_step[c] and need > 0.5 * best_need  # prefer the other foot
             if need > 0.0 and (best < 0 or need > best_need or alternate):
                 best = f
                 best_need = need
         if best < 0:
             continue
-        # launch: land ahead of the hip where the pelvis will be when the step ends
+        # launch: land ahead of where the hip will be when the step ends (going at the
+        # pelvis's actual pace), never further than the leg reaches from there
+        # beside the pelvis, half a hip-width out along the walk's (or the body's) left
         i = nd[L_FOOT + best]
-        h = nd[L_HIP + best]
-        tx = pos[h, 0] + wx * t_step + dx * reach
-        tz = pos[h, 2] + wz * t_step + dz * reach
+        p = nd[PELVIS]
+        vx = (pos[p, 0] - prev[p, 0]) / dt
+        vz = (pos[p, 2] - prev[p, 2]) / dt
+        if moving:
+            lx, lz = dz, -dx
+        else:
+            fx, fz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
+            lx, lz = fz, -fx
+        half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
+                               + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
+        side = half if best == 0 else -half
+        # lead by the pelvis's actual pace along the walk only: its sideways sway is
+        # not where it is going
+        along = max(0.0, vx * dx + vz * dz) * t_step + reach
+        tx = pos[p, 0] + dx * along + side * lx
+        tz = pos[p, 2] + dz * along + side * lz
         ty = radius[i]
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING

@@ -46,14 +46,15 @@ from twig_ecs.system import System
 
 HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
-WALK_GAIN = 8.0  # 1/s: pelvis velocity towards the walk vector
+WALK_GAIN = 15.0  # 1/s: pelvis velocity towards the walk vector
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
-YAW_GAIN, YAW_DAMP = 60.0, 14.0  # rad/s^2 per rad, per rad/s
+YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
 LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
 WALK_SINK = 0.035  # m of pelvis height per m/s of walking (at 1.75 m tall)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
+MAX_YAW_ACC = 600.0  # rad/s^2
 
 TORSO = (PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_SHOULDER, R_SHOULDER)
 LOWER = (PELVIS, SPINE, NECK, L_HIP, R_HIP)
@@ -152,7 +153,7 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         if moving and mode[c] == STAND:
             sp = math.sqrt(wx * wx + wz * wz)
             theta = yaw_error(fx, fz, wx / sp, wz / sp)
-        alpha = clamp(YAW_GAIN * theta - YAW_DAMP * omega, -60.0, 60.0)
+        alpha = clamp(YAW_GAIN * theta - YAW_DAMP * omega, -MAX_YAW_ACC, MAX_YAW_ACC)
         for role in LOWER:
             i = nd[role]
             acc[i, 0] += alpha * (pos[i, 2] - pos[p, 2])
@@ -172,7 +173,7 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         swidth = math.sqrt((pos[ls, 0] - pos[rs, 0]) ** 2 + (pos[ls, 2] - pos[rs, 2]) ** 2) + 1e-9
         somega = (((pos[rs, 0] - prev[rs, 0]) - (pos[ls, 0] - prev[ls, 0])) * sx
                   + ((pos[rs, 2] - prev[rs, 2]) - (pos[ls, 2] - prev[ls, 2])) * sz) / (dt * swidth)
-        salpha = clamp(YAW_GAIN * (want - twist) - YAW_DAMP * (somega - omega), -60.0, 60.0)
+        salpha = clamp(YAW_GAIN * (want - twist) - YAW_DAMP * (somega - omega), -MAX_YAW_ACC, MAX_YAW_ACC)
         for role in UPPER:
             i = nd[role]
             acc[i, 0] += salpha * (pos[i, 2] - pos[n, 2])
