@@ -35,7 +35,8 @@ def _cell_hash(ix, iy, iz, mask):
 
 
 @njit(cache=True)
-def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, margin, cell, pairs):
+def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, col_ignore, n_col, margin, cell,
+                pairs):  # fmt: skip
     """Candidate collider pairs whose padded boxes overlap, via a spatial hash grid.
 
     Writes up to ``len(pairs)`` pairs and returns how many there are in all; when that
@@ -93,6 +94,8 @@ def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, n_col, 
                     continue
                 # joints within one body first: the cheapest test, and most pairs in a crowd
                 if col_body[i] == col_body[j] and (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
+                    continue
+                if col_ignore[i] == col_body[j] or col_ignore[j] == col_body[i]:
                     continue
                 # boxes overlap?
                 overlap = True
@@ -332,6 +335,7 @@ class CollideSystem(System):
             col.body,
             col.local,
             col.mask,
+            col.ignore,
             col.count,
             BROAD_MARGIN,
             CELL_SIZE,

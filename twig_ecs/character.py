@@ -218,6 +218,16 @@ class CharacterHandle(BodyHandle):
         return self._chars().walk[self._crow].copy()
 
     @property
+    def stand_height(self) -> float:
+        """Pelvis height (m) the character stands at."""
+        return float(self._chars().stand_height[self._crow])
+
+    @property
+    def last_foot(self) -> str:
+        """The foot that stepped last: "left" or "right"."""
+        return ("left", "right")[int(self._chars().last_step[self._crow])]
+
+    @property
     def steps(self) -> int:
         """Steps taken so far."""
         return int(self._chars().steps[self._crow])
@@ -262,9 +272,14 @@ class CharacterHandle(BodyHandle):
                 raise TwigError(f"'{self.name}' cannot sit on itself")
             pos = seat_body.node_positions
             rows = slice(seat_body.body.node_start, seat_body.body.node_start + len(pos))
-            top = float((pos[:, 1] + n.radius[rows]).max())
-            nearest = pos[np.argmin(np.linalg.norm((pos - pelvis)[:, [0, 2]], axis=1))]
-            seat = np.array([nearest[0], top + n.radius[self._role("l_hip")], nearest[2]])
+            tops = pos[:, 1] + n.radius[rows]
+            top = float(tops.max())
+            # over the seat's top surface (its highest nodes), towards its middle
+            surface = pos[tops > top - 0.05][:, [0, 2]]
+            lo, hi = surface.min(axis=0), surface.max(axis=0)
+            mid, half = (lo + hi) / 2, (hi - lo) / 2 * 0.8
+            x, z = np.clip(pelvis[[0, 2]], mid - half, mid + half)
+            seat = np.array([x, top + n.radius[self._role("l_hip")], z])
         ch.seat[row] = seat
         ch.walk[row] = 0.0
         ch.mode[row] = SIT

@@ -98,17 +98,20 @@ class Scene:
         """Build a scene from a validated :class:`ScenePlan`."""
         scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
         scene.source = plan.file
-        for spec in plan.entities:
-            scene._spawn_spec(spec)
-        for i, spec in enumerate(plan.entities):  # starting commands may name later entities
-            if spec.character is not None and spec.character.start:
-                try:
-                    scene.entity(spec.name).apply(spec.character.start)
-                except TwigError as exc:
-                    scene.close()  # nothing half-loaded
-                    doc = next(iter(spec.character.where.values()))
-                    file, line = doc.where()
-                    raise SceneError(str(exc), file, line, f"entities[{i}].character") from None
+        try:
+            for spec in plan.entities:
+                scene._spawn_spec(spec)
+            for i, spec in enumerate(plan.entities):  # starting commands may name later entities
+                if spec.character is not None and spec.character.start:
+                    try:
+                        scene.entity(spec.name).apply(spec.character.start)
+                    except TwigError as exc:
+                        doc = next(iter(spec.character.where.values()))
+                        file, line = doc.where()
+                        raise SceneError(str(exc), file, line, f"entities[{i}].character") from None
+        except BaseException:
+            scene.close()  # nothing half-loaded
+            raise
         return scene
 
     source: str | None = None
@@ -210,6 +213,7 @@ class Scene:
         entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
         links.entity[row] = entity
         self.state.version += 1
+        self.state.colliders_dirty = True  # the hand and what it holds stop colliding
         return entity
 
     def release(self, grab: int) -> None:
@@ -278,10 +282,10 @@ class Scene:
         self.activate()
         if self._installed is None:
             self._install()
-        if self.state.colliders_dirty:
-            self.state.rebuild_colliders()
         ensure_compiled()
         for _ in range(n):
+            if self.state.colliders_dirty:
+                self.state.rebuild_colliders()
             self.events.clear()
             esper.process(self.dt)
             self.frame += 1

@@ -15,6 +15,7 @@ import numpy as np
 from twig_ecs.character import CharacterSpec
 from twig_ecs.components import PainSensor
 from twig_ecs.library import ContentLibrary, read_document
+from twig_ecs.store import ROLES
 from twig_ecs.templates import (
     BodyTemplate,
     Damping,
@@ -121,7 +122,7 @@ def read_entity(raw: YDict, path: str, library: ContentLibrary) -> EntitySpec:
         color=read(raw, "color", path, color, None),
         pain=pain,
         damping=read_damping(raw, "damping", path, None),
-        character=read_character(raw, path),
+        character=read_character(raw, path, template),
     )
 
 
@@ -161,10 +162,15 @@ def _one_of(*names):
     return read_name
 
 
-def read_character(raw: YDict, path: str) -> CharacterSpec | None:
+def read_character(raw: YDict, path: str, template: BodyTemplate) -> CharacterSpec | None:
     """The ``character:`` key: true, or a mapping of settings and starting commands."""
     if "character" not in raw or raw["character"] is False:
         return None
+    missing = [r for r in ROLES if r not in template.node_names]
+    if missing:
+        fail(raw, "character", join(path, "character"),
+             f"a character needs a body with the humanoid's nodes; '{template.name}' lacks "
+             + ", ".join(missing))  # fmt: skip
     if raw["character"] is True:
         return CharacterSpec()
     here = join(path, "character")

@@ -92,6 +92,7 @@ COLLIDER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "body": (np.int32, (), -1),
     "local": (np.int32, (), 0),  # index among its body's colliders (0..63)
     "mask": (np.uint64, (), 0),  # bit k set: never collide with local collider k of own body
+    "ignore": (np.int32, (), -1),  # a body it never collides with (what its hand holds)
     # Tactile sensing written by the collide kernel each step (SPEC 2):
     "hit_energy": (np.float64, (), 0.0),  # largest impact kinetic energy this step (J)
     "hit_by": (np.int32, (), -1),  # collider that delivered it
@@ -342,6 +343,16 @@ class PhysicsState:
                     if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
+        # a held thing and the hand that holds it do not push each other apart
+        grabs = np.flatnonzero(lk.flags[: lk.count] & LINK_GRAB)
+        for g in grabs:
+            a, b = int(lk.a[g]), int(lk.b[g])
+            ba, bb = int(n.body[a]), int(n.body[b])
+            for c in range(total):
+                if int(col.a[c]) == a or int(col.b[c]) == a:
+                    col.ignore[c] = bb
+                elif int(col.a[c]) == b or int(col.b[c]) == b:
+                    col.ignore[c] = ba
         self.version += 1
 
     # -- read-outs ------------------------------------------------------------------
