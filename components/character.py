@@ -16,3 +16,6 @@ class Character:
     index: int
     max_speed: float = 6.0  # m/s
     holding: dict[str, int] = field(default_factory=dict)
+    route: list[tuple[float, float]] = field(default_factory=list)  # patrol waypoints (x, z)
+    route_speed: float = 1.0  # m/s along the route
+    waypoint: int = 0  # index of the waypoint it walks to

@@ -12,6 +12,7 @@ from twig_ecs.systems.constrain import ConstrainSystem
 from twig_ecs.systems.gait import GaitSystem
 from twig_ecs.systems.gaze import GazeSystem
 from twig_ecs.systems.integrate import IntegrateSystem
+from twig_ecs.systems.patrol import PatrolSystem
 from twig_ecs.systems.posture import PostureSystem
 from twig_ecs.systems.respiration import RespirationSystem
 from twig_ecs.systems.sense import SenseSystem
@@ -23,6 +24,7 @@ __all__ = [
     "GaitSystem",
     "GazeSystem",
     "IntegrateSystem",
+    "PatrolSystem",
     "PostureSystem",
     "RespirationSystem",
     "SenseSystem",

@@ -405,6 +405,16 @@ class CharacterHandle(BodyHandle):
                 self.scene.release(grab)
             self._chars().arm_mode[self._crow, h] = HANG
 
+    def patrol(self, route: Sequence[Sequence[float]], speed: float = 1.0) -> None:
+        """Walk round a loop of ground waypoints [(x, z), ...] at ``speed`` m/s; [] to stop."""
+        points = [tuple(float(v) for v in _vector(p, "waypoint", 2)) for p in route]
+        if speed <= 0 or speed > self.character.max_speed:
+            raise TwigError(f"patrol speed must be above 0 and at most {self.character.max_speed} m/s")
+        character = self.character
+        character.route, character.route_speed, character.waypoint = points, float(speed), 0
+        if not points:
+            self.stop()
+
     # -- starting commands from YAML ---------------------------------------------------------
 
     def apply(self, commands: dict[str, Any]) -> None:
@@ -426,5 +436,7 @@ class CharacterHandle(BodyHandle):
                 self.sit(None if value is True else value)
             elif key == "hold":
                 self.grab(value)
+            elif key == "patrol":
+                self.patrol(value["route"], value.get("speed", 1.0))
             else:  # pragma: no cover - the loader only passes known keys
                 raise TwigError(f"unknown character command '{key}'")

@@ -71,6 +71,7 @@ class Scene:
         for system in (s.IntegrateSystem(), s.ConstrainSystem(), s.CollideSystem(), s.SenseSystem(),
                        s.GaitSystem()):  # fmt: skip
             self.add_system(system)
+        self.add_system(s.PatrolSystem(), after="select_behavior", before="gait")
         # the low-level controllers sit with posture: gaze first (posture turns the
         # shoulders after the face), then posture, arms and breathing
         self.add_system(s.GazeSystem(), after="gait", before="posture")

@@ -44,7 +44,8 @@ SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "entities"
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
                "character")  # fmt: skip
-CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold")
+CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
+                  "patrol")  # fmt: skip
 
 
 @dataclass
@@ -153,6 +154,20 @@ def _seat(value):
     raise ValueError("true (sit on the ground) or the name of a seat entity")
 
 
+def _patrol(value):
+    """{route: [[x, z], ...], speed: m/s}."""
+    if not isinstance(value, dict) or "route" not in value or not set(value) <= {"route", "speed"}:
+        raise ValueError("a mapping {route: [[x, z], ...], speed: m/s}")
+    route = value["route"]
+    if (
+        not isinstance(route, list)
+        or not route
+        or not all(isinstance(p, list) and len(p) == 2 for p in route)
+    ):
+        raise ValueError("a route of [x, z] points")
+    return {"route": [[number(x), number(z)] for x, z in route], "speed": positive(value.get("speed", 1.0))}
+
+
 def _one_of(*names):
     def read_name(value):
         if value not in names:
@@ -185,6 +200,7 @@ def read_character(raw: YDict, path: str, template: BodyTemplate) -> CharacterSp
         "gesture": _one_of("wave"),
         "pose": _one_of("hang", "grapple", "hug", "carry"),
         "sit": _seat,
+        "patrol": _patrol,
     }
     spec = CharacterSpec(max_speed=read(doc, "max_speed", here, positive, 6.0))
     for key, kind in kinds.items():

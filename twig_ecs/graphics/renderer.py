@@ -143,14 +143,14 @@ def face_frames(pos: np.ndarray, faces: Faces, gaze: np.ndarray | None = None) -
 
     Up runs from the neck to the head; forward is the torso's forward,
     cross(l_shoulder - r_shoulder, neck - spine), made perpendicular to up. ``gaze``, a
-    per-face look direction when a later system provides one, replaces the torso forward.
+    per-face look direction (a character's head direction; NaN rows for other bodies),
+    replaces the torso forward where given.
     """
     up = _unit(pos[faces.head] - pos[faces.neck])
-    ahead = (
-        gaze
-        if gaze is not None
-        else np.cross(pos[faces.l_shoulder] - pos[faces.r_shoulder], pos[faces.neck] - pos[faces.spine])
-    )
+    ahead = np.cross(pos[faces.l_shoulder] - pos[faces.r_shoulder], pos[faces.neck] - pos[faces.spine])
+    if gaze is not None:
+        given = np.isfinite(gaze).all(axis=1)
+        ahead[given] = gaze[given]
     fwd = _unit(ahead - (ahead * up).sum(axis=1, keepdims=True) * up)
     left = np.cross(up, fwd)
     return fwd, left, up
@@ -342,8 +342,12 @@ class Renderer:
 
         faces = t.faces
         if opts.faces and len(faces.head):
-            gaze = state.bodies.arrays.get("gaze")
-            face_gaze = gaze[n.body[faces.head]] if gaze is not None else None
+            face_gaze = None
+            ch = state.characters
+            if ch.count:  # characters' faces point where their gaze controller turned them
+                gaze = np.full((state.bodies.count, 3), np.nan)
+                gaze[ch.body[: ch.count]] = ch.head_dir[: ch.count]
+                face_gaze = gaze[n.body[faces.head]]
             fwd, left, up = face_frames(pos, faces, face_gaze)
             r = faces.radius[:, None]
             centre = pos[faces.head]
