@@ -86,8 +86,35 @@ def _behaviour(scene, name: str) -> str:
     return str(getattr(value, "name", value))
 
 
+def _character_field(read: Callable[[object], str]) -> InspectorField:
+    """A column that only characters fill ('-' for other bodies)."""
+
+    def field(scene, name: str) -> str:
+        handle = scene.entity(name)
+        return read(handle) if hasattr(handle, "posture") else "-"
+
+    return field
+
+
+def _speed(handle) -> str:
+    v = handle.velocity
+    return f"{(v[0] ** 2 + v[2] ** 2) ** 0.5:4.1f}"
+
+
+def _arms(handle) -> str:
+    modes = handle.arm_modes
+    return f"{modes['left']}/{modes['right']}"
+
+
 #: Inspector columns after the name, in order. Add more with :func:`add_inspector_field`.
-INSPECTOR_FIELDS: dict[str, InspectorField] = {"behaviour": _behaviour, "pain": _pain}
+INSPECTOR_FIELDS: dict[str, InspectorField] = {
+    "behaviour": _behaviour,
+    "pain": _pain,
+    "posture": _character_field(lambda h: h.posture),
+    "m/s": _character_field(_speed),
+    "arms": _character_field(_arms),
+    "holds": _character_field(lambda h: ",".join(h.holding.values()) or "-"),
+}
 
 
 def add_inspector_field(title: str, field: InspectorField) -> None:
