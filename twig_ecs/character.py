@@ -405,6 +405,15 @@ class CharacterHandle(BodyHandle):
                 self.scene.release(grab)
             self._chars().arm_mode[self._crow, h] = HANG
 
+    def _hold_nearest(self, target: str) -> None:
+        """Grab ``target`` with whichever hand is nearer to it."""
+        other = self.scene.entity(target) if target != self.name else None
+        if other is None:
+            raise TwigError(f"'{self.name}' cannot hold itself")
+        pos = other.node_positions
+        gaps = [float(np.linalg.norm(pos - self.node(h), axis=1).min()) for h in ("l_hand", "r_hand")]
+        self.grab(target, hand="left" if gaps[0] < gaps[1] else "right")
+
     def patrol(self, route: Sequence[Sequence[float]], speed: float = 1.0) -> None:
         """Walk round a loop of ground waypoints [(x, z), ...] at ``speed`` m/s; [] to stop."""
         points = [tuple(float(v) for v in _vector(p, "waypoint", 2)) for p in route]
@@ -435,7 +444,7 @@ class CharacterHandle(BodyHandle):
             elif key == "sit":
                 self.sit(None if value is True else value)
             elif key == "hold":
-                self.grab(value)
+                self._hold_nearest(value)
             elif key == "patrol":
                 self.patrol(value["route"], value.get("speed", 1.0))
             else:  # pragma: no cover - the loader only passes known keys
