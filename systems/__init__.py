@@ -15,6 +15,7 @@ from twig_ecs.systems.integrate import IntegrateSystem
 from twig_ecs.systems.patrol import PatrolSystem
 from twig_ecs.systems.posture import PostureSystem
 from twig_ecs.systems.respiration import RespirationSystem
+from twig_ecs.systems.select_behavior import SelectBehaviorSystem
 from twig_ecs.systems.sense import SenseSystem
 
 __all__ = [
@@ -27,5 +28,6 @@ __all__ = [
     "PatrolSystem",
     "PostureSystem",
     "RespirationSystem",
+    "SelectBehaviorSystem",
     "SenseSystem",
 ]

@@ -18,12 +18,22 @@ import math
 
 from numba import njit
 
-from twig_ecs.kernelmath import L_ELBOW, L_HAND, L_SHOULDER, R_SHOULDER, clamp, forward_xz
+from twig_ecs.kernelmath import (
+    CARRY,
+    GRAPPLE,
+    HANG,
+    HUG,
+    L_ELBOW,
+    L_HAND,
+    L_SHOULDER,
+    POINT,
+    R_SHOULDER,
+    REACH,
+    WAVE,
+    clamp,
+    forward_xz,
+)
 from twig_ecs.system import System
-
-HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
-ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
-             "carry": CARRY}  # fmt: skip
 
 HAND_GAIN, HAND_DAMP = 150.0, 24.0  # 1/s^2, 1/s
 ELBOW_DAMP = 10.0

@@ -171,7 +171,8 @@ def resolve_contacts(
     Each capsule's end nodes move in proportion to their share of the contact point
     (s, 1-s) and inverse mass, so the correction is equal and opposite (momentum kept).
     With ``record`` set, the impact energy 1/2 mu u^2 (u: closing speed along the normal,
-    mu: reduced mass at the contact) is written to the tactile record. Returns the
+    mu: reduced mass at the contact) is written to the tactile record of the struck side
+    (the one that contributed less of the closing speed). Returns the
     largest penetration (m) met in this pass.
     """
     worst = 0.0
@@ -240,12 +241,17 @@ def resolve_contacts(
             closing = -(ux * nx + uy * ny + uz * nz) / dt
             if closing > 0.0:
                 energy = 0.5 * closing * closing / w
-                if energy > hit_energy[i]:
-                    hit_energy[i] = energy
-                    hit_by[i] = j
-                if energy > hit_energy[j]:
-                    hit_energy[j] = energy
-                    hit_by[j] = i
+                # the blow is felt by the side that was struck: the one that moved less
+                # towards the other (a fist lands on a face, not the face on the fist)
+                vi = -(
+                    (sa * (pos[a, 0] - prev[a, 0]) + s * (pos[b, 0] - prev[b, 0])) * nx
+                    + (sa * (pos[a, 1] - prev[a, 1]) + s * (pos[b, 1] - prev[b, 1])) * ny
+                    + (sa * (pos[a, 2] - prev[a, 2]) + s * (pos[b, 2] - prev[b, 2])) * nz
+                )
+                struck, striker = (j, i) if vi * 2.0 > closing * dt else (i, j)
+                if energy > hit_energy[struck]:
+                    hit_energy[struck] = energy
+                    hit_by[struck] = striker
         # resolve at most half the thinner radius per pass: a limb found deep inside
         # another (fast motion, crossed segments with an unreliable normal) is eased
         # out over a few passes instead of being flung out in one

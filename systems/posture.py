@@ -64,7 +64,7 @@ UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
 # fmt: off
 @njit(cache=True)
 def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, head_dir, stand_height,
-                    scale, n_chars, gravity, dt):
+                    crouch, lean, scale, n_chars, gravity, dt):
     """Add posture accelerations for every character (see the module docstring)."""
     for c in range(n_chars):
         if mode[c] == LIMP:
@@ -103,6 +103,7 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         else:
             # walking, the pelvis sinks a little so the legs can reach further
             target_y = stand_height[c] - WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
+            target_y -= crouch[c]  # stooping to reach something low
         ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * vpy
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
@@ -127,8 +128,8 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         if mode[c] == RISE:
             tx, tz = feet_x, feet_z
         else:
-            tx = pos[p, 0] + LEAN * wx
-            tz = pos[p, 2] + LEAN * wz
+            tx = pos[p, 0] + LEAN * wx + lean[c, 0]
+            tz = pos[p, 2] + LEAN * wz + lean[c, 2]
         vnx = (pos[n, 0] - prev[n, 0]) / dt - vpx
         vnz = (pos[n, 2] - prev[n, 2]) / dt - vpz
         ux = clamp(UPRIGHT_GAIN * (tx - pos[n, 0]) - UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
@@ -193,5 +194,5 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         control_posture(n.pos, n.prev, n.acc, n.mass, ch.nodes, ch.mode, ch.mode_time, ch.walk, ch.seat,
-                        ch.head_dir, ch.stand_height, ch.scale, ch.count, self.scene.settings.gravity,
-                        dt)  # fmt: skip
+                        ch.head_dir, ch.stand_height, ch.crouch, ch.lean, ch.scale, ch.count,
+                        self.scene.settings.gravity, dt)  # fmt: skip

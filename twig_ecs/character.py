@@ -20,9 +20,8 @@ import numpy as np
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.handles import BodyHandle
-from twig_ecs.kernelmath import LIMP, RISE, SIT, STAND
+from twig_ecs.kernelmath import ARM_MODES, CARRY, HANG, LIMP, POINT, REACH, RISE, SIT, STAND, WAVE
 from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCKED, ROLES
-from twig_ecs.systems.arms import ARM_MODES, CARRY, HANG, POINT, REACH, WAVE
 from twig_ecs.validate import LIMIT, suggest
 
 if TYPE_CHECKING:
@@ -82,6 +81,9 @@ def make_character(scene: Scene, entity: int, facing: float, spec: CharacterSpec
                 ch.breath_rest[row, k] = links.rest[j]
     _set_braces(scene, body, on=False)
     esper.add_component(entity, Character(row, max_speed=spec.max_speed))
+    from twig_ecs.behavior import Mind
+
+    esper.add_component(entity, Mind())
     return row
 
 
@@ -332,6 +334,34 @@ class CharacterHandle(BodyHandle):
                 ch.arm_point[row, h] = _vector(target, "target point")
             ch.arm_mode[row, h] = mode
 
+    def stoop(self, towards: str | Sequence[float] | None) -> None:
+        """Crouch and lean so the hands can get down to a low point (or entity); None: stand tall.
+
+        The shoulders lean towards it (up to 0.45 m at 1.75 m tall) and the pelvis
+        sinks (up to 45% of standing height) until they are within an arm's length.
+        """
+        ch, row = self._chars(), self._crow
+        if towards is None:
+            ch.crouch[row] = 0.0
+            ch.lean[row] = 0.0
+            return
+        point = self.scene.entity(towards).position if isinstance(towards, str) else _vector(towards, "point")
+        scale = ch.scale[row]
+        pos = self.scene.state.nodes.pos
+        arm = 0.56 * scale
+        torso = float(np.linalg.norm(pos[self._role("neck")] - pos[self._role("pelvis")]))
+        shoulders = ch.stand_height[row] + torso  # standing shoulder height
+        drop = shoulders - point[1] - 0.85 * arm  # how much lower the shoulders must get
+        if drop <= 0.0:
+            self.stoop(None)
+            return
+        ahead = (point - pos[self._role("pelvis")]) * np.array([1.0, 0.0, 1.0])
+        ahead /= max(float(np.linalg.norm(ahead)), 1e-9)
+        lean = min(0.45 * scale, 0.8 * drop)
+        lowered = torso - math.sqrt(max(torso**2 - lean**2, 0.0))
+        ch.lean[row] = ahead * lean
+        ch.crouch[row] = min(0.45 * ch.stand_height[row], max(0.0, drop - lowered))
+
     def reach(self, target: str | Sequence[float], hand: str = "right", node: str | None = None) -> None:
         """Reach a hand (or ``"both"``) towards a point or an entity."""
         self._aim(self._hands(hand), REACH, target, node)
@@ -423,6 +453,97 @@ class CharacterHandle(BodyHandle):
         character.route, character.route_speed, character.waypoint = points, float(speed), 0
         if not points:
             self.stop()
+
+    # -- behaviour goals (SPEC 4) ------------------------------------------------------------
+
+    @property
+    def mind(self):
+        """The behaviour state: goals, current winner, switch count."""
+        from twig_ecs.behavior import Mind
+
+        self.scene.activate()
+        return esper.component_for_entity(self.entity, Mind)
+
+    @property
+    def behaviour(self) -> str:
+        """The behaviour winning right now ("idle" when nothing in particular)."""
+        return self.mind.winner
+
+    @property
+    def goals(self) -> list:
+        """Queued goals, the current one first."""
+        return list(self.mind.goals)
+
+    def do(self, behavior: str, on_end=None, **params):
+        """Queue a goal for behaviour ``behavior`` (approach, hug, grapple, carry, drag, sit,
+        stand, freeze, gesture, or a plug-in's) and return it; it reports ``goal.done`` or
+        ``goal.failed`` events and calls ``on_end(goal)`` when it ends."""
+        from twig_ecs.behavior import Goal
+
+        system = self.scene.behaviors.get(behavior)
+        if system is None or not system.goal_driven:
+            known = sorted(k for k, v in self.scene.behaviors.items() if v.goal_driven)
+            raise TwigError(f"no goal behaviour '{behavior}'" + suggest(behavior, known))
+        unknown = set(params) - set(system.params)
+        if unknown:
+            raise TwigError(f"{behavior}: unknown parameter(s) {', '.join(sorted(unknown))} "
+                            f"(takes: {', '.join(system.params) or 'none'})")  # fmt: skip
+        merged = {**system.params, **params}
+        missing = [
+            k for k, v in merged.items() if v is None and system.params.get(k, 0) is None and k in ("target",)
+        ]
+        if missing:
+            raise TwigError(f"{behavior}: needs {', '.join(missing)}")
+        for key in ("target", "to", "on"):
+            value = merged.get(key)
+            if isinstance(value, str):
+                if value == self.name:
+                    raise TwigError(f"{behavior}: '{self.name}' cannot {behavior} itself")
+                self.scene.entity(value)  # KeyError with suggestions if unknown
+            elif value is not None:
+                merged[key] = tuple(_vector(value, f"{behavior} {key}"))
+        goal = Goal(behavior, merged, on_end=on_end)
+        self.mind.goals.append(goal)
+        return goal
+
+    def approach(self, target, stop_distance: float = 0.6, direction=None, arms: str | None = None,
+                 curl: bool = True, on_end=None):  # fmt: skip
+        """Walk to ``target`` (entity or point) round obstacles; stop ``stop_distance`` m off it.
+
+        ``direction``: a ground vector to arrive from; ``arms``: "reach", "hug" or "grapple"
+        on the way; ``curl=False`` drops the sideways steering (for comparison).
+        """
+        if arms not in (None, "reach", "hug", "grapple"):
+            raise TwigError(f"approach arms must be reach, hug or grapple, got {arms!r}")
+        return self.do("approach", on_end=on_end, target=target, stop_distance=float(stop_distance),
+                       direction=direction, arms=arms, curl=bool(curl))  # fmt: skip
+
+    def hug(self, target: str, duration: float = 2.0, on_end=None):
+        """Walk up to a character, put both arms round it for ``duration`` s, let go."""
+        return self.do("hug", on_end=on_end, target=target, duration=float(duration))
+
+    def grapple(self, target: str, duration: float = 3.0, on_end=None):
+        """Close to arm's length and bash the target with the arms for ``duration`` s."""
+        return self.do("grapple", on_end=on_end, target=target, duration=float(duration))
+
+    def carry(self, target: str, to=None, hand: str = "right", on_end=None):
+        """Fetch ``target`` in a hand, then carry it ``to`` a point or entity (if given)."""
+        self._hands(hand)
+        return self.do("carry", on_end=on_end, target=target, to=to, hand=hand)
+
+    def drag(self, target: str, distance: float = 5.0, hand: str = "right", on_end=None):
+        """Grab a character or ragdoll and walk ``distance`` m away pulling it."""
+        self._hands(hand)
+        return self.do("drag", on_end=on_end, target=target, distance=float(distance), hand=hand)
+
+    def freeze(self, duration: float | None = None, on_end=None):
+        """Hold every node still (for ``duration`` s, or until the next goal)."""
+        return self.do("freeze", on_end=on_end, duration=duration)
+
+    def cancel_goals(self) -> None:
+        """Fail every queued goal (reason "cancelled")."""
+        for goal in list(self.mind.goals):
+            self.scene.end_goal(self, goal, False, "cancelled")
 
     # -- starting commands from YAML ---------------------------------------------------------
 

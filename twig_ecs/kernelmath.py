@@ -16,6 +16,11 @@ L_FOOT, R_FOOT, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND = 8, 9,
 # posture modes (CHARACTER_FIELDS["mode"])
 STAND, SIT, RISE, LIMP = 0, 1, 2, 3
 
+# arm modes (CHARACTER_FIELDS["arm_mode"]), see systems/arms.py
+HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
+ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
+             "carry": CARRY}  # fmt: skip
+
 
 @njit(cache=True, inline="always")
 def forward_xz(pos, left, right):

@@ -16,6 +16,7 @@ from pathlib import Path
 import esper
 import numpy as np
 
+from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.components import Body, Character, GrabJoint, Link, Name, Node
 from twig_ecs.errors import SceneError, TwigError
@@ -67,10 +68,16 @@ class Scene:
         self._installed: list[System] | None = None
         self.activate()
         from twig_ecs import systems as s
+        from twig_ecs.behavior import load_builtin_behaviors
 
+        self.behaviors: dict[str, Behavior] = {}
         for system in (s.IntegrateSystem(), s.ConstrainSystem(), s.CollideSystem(), s.SenseSystem(),
                        s.GaitSystem()):  # fmt: skip
             self.add_system(system)
+        # behaviours propose activations before select_behavior picks and runs the winners
+        for behavior in load_builtin_behaviors().values():
+            self.add_system(behavior(), after="sense", before="select_behavior")
+        self.add_system(s.SelectBehaviorSystem())
         self.add_system(s.PatrolSystem(), after="select_behavior", before="gait")
         # the low-level controllers sit with posture: gaze first (posture turns the
         # shoulders after the face), then posture, arms and breathing
@@ -253,6 +260,8 @@ class Scene:
         system.scene = self
         self.schedule.add(system, name=name, before=before, after=after)
         system.setup()
+        if isinstance(system, Behavior):
+            self.behaviors[name or system.name] = system
         self._installed = None  # re-map onto esper priorities before the next step
         return system
 
@@ -315,6 +324,25 @@ class Scene:
             return self._names[name]
         except KeyError:
             raise KeyError(f"no entity named '{name}'" + suggest(name, self._names)) from None
+
+    def character_handle(self, entity: int) -> CharacterHandle:
+        """The handle of a character by entity id."""
+        return CharacterHandle(self, entity, self.name_of(entity) or str(entity))
+
+    def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
+        """Finish a character's goal: mark it, drop it from the queue, report it."""
+        if goal.finished:
+            return
+        goal.status, goal.reason = ("done" if ok else "failed"), reason
+        mind = esper.component_for_entity(character.entity, Mind)
+        if goal in mind.goals:
+            mind.goals.remove(goal)
+        if ok:
+            self.emit(GoalDone(character.entity, goal.id, goal.behavior))
+        else:
+            self.emit(GoalFailed(character.entity, goal.id, goal.behavior, reason))
+        if goal.on_end is not None:
+            goal.on_end(goal)
 
     def entity(self, name: str) -> BodyHandle:
         """The handle of the entity called ``name`` (KeyError with suggestions if unknown).

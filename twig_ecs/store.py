@@ -115,6 +115,8 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "mode": (np.int32, (), 0),  # posture: 0 stand, 1 sit, 2 rise (sitting up), 3 limp
     "mode_time": (np.float64, (), 0.0),  # s spent in the current mode
     "walk": (np.float64, (3,), 0.0),  # desired ground velocity of the pelvis (m/s)
+    "crouch": (np.float64, (), 0.0),  # m the pelvis is lowered from standing height (stooping)
+    "lean": (np.float64, (3,), 0.0),  # m the shoulder centre leads the pelvis (stooping)
     "seat": (np.float64, (3,), 0.0),  # where the pelvis goes when sitting
     "gaze_mode": (np.int32, (), 0),  # 0: direction of motion, 1: a point, 2: a node
     "gaze_point": (np.float64, (3,), 0.0),

@@ -1,0 +1,106 @@
+"""approach: walk to a target around obstacles, then stop at a distance (SPEC 4).
+
+A goal-driven behaviour (``character.approach(target, stop_distance=..., direction=...,
+arms=...)``). Each step it steers with the attraction + curl-repulsion field of
+:mod:`twig_ecs.steering` and looks at the target; it is done within the stop distance
+and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry and
+drag use :func:`steer_to` for their own approach phases.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+
+STALL_TIME = 4.0  # s without getting 10 cm closer: give up
+ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
+
+
+def target_point(character, target) -> np.ndarray:
+    """Where a target is: a point as given, or an entity's centre of mass."""
+    if isinstance(target, str):
+        return character.scene.entity(target).position
+    return np.asarray(target, dtype=np.float64)
+
+
+def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
+    """The nearest node of every other body within ``cutoff`` (ground plane), as points."""
+    scene = character.scene
+    state = scene.state
+    here = character.position
+    pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
+    d2 = (pos[:, 0] - here[0]) ** 2 + (pos[:, 2] - here[2]) ** 2
+    near = np.flatnonzero(d2 < cutoff**2)
+    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
+    best: dict[int, int] = {}
+    for i in near:
+        b = int(body[i])
+        if b in skip:
+            continue
+        if b not in best or d2[i] < d2[best[b]]:
+            best[b] = int(i)
+    return pos[list(best.values())] if best else np.zeros((0, 3))
+
+
+def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,
+             exclude: tuple[str, ...] = ()) -> bool:  # fmt: skip
+    """Walk towards ``target`` until within ``stop_distance``; True once there.
+
+    Fails the goal when it stalls. ``direction`` (a ground vector) makes it arrive from
+    that side of the target; by default it comes from where it is.
+    """
+    memory = goal.memory
+    here = character.position
+    where = target_point(character, target)
+    if direction is None:
+        direction = here - where
+    direction = np.asarray(direction, dtype=np.float64) * np.array([1.0, 0.0, 1.0])
+    norm = float(np.linalg.norm(direction))
+    direction = direction / norm if norm > 1e-9 else np.zeros(3)
+    aim = where + stop_distance * direction
+    distance = ground_distance(here, where)
+    if distance <= stop_distance + ARRIVE_SLACK:
+        character.stop()
+        return True
+    scene = character.scene
+    if distance < memory.get("best", np.inf) - 0.1:
+        memory["best"], memory["best_at"] = distance, scene.time
+    elif scene.time - memory.setdefault("best_at", scene.time) > STALL_TIME:
+        character.stop()
+        character.scene.end_goal(character, goal, False, f"stuck {distance:.2f} m from the target")
+        return False
+    ignore = set(exclude) | ({target} if isinstance(target, str) else set())
+    params = SteeringParams(curl=curl)
+    obstacles = obstacles_near(character, ignore, params.cutoff)
+    character.walk(approach_velocity(here, aim, obstacles, params))
+    return False
+
+
+@register
+class Approach(Behavior):
+    """Walk to a target (an entity or a point) and stop at a distance from it."""
+
+    name = "approach"
+    goal_driven = True
+    params = {"target": None, "stop_distance": 0.6, "direction": None, "arms": None, "curl": True}
+
+    def act(self, character, mind: Mind, goal: Goal | None, dt: float) -> None:
+        """Steer; look at the target; hold the arms as asked (reach, hug or grapple)."""
+        p = goal.params
+        target = p["target"]
+        if isinstance(target, str):
+            character.look_at(target)
+        if p["arms"] in ("hug", "grapple"):
+            character.pose(p["arms"])
+        elif p["arms"] == "reach" and isinstance(target, str):
+            character.reach(target, hand="both")
+        if steer_to(character, goal, target, p["stop_distance"], p["direction"], p["curl"]):
+            self.finish(character, goal)
+
+    def stop(self, character, goal: Goal | None) -> None:
+        """Stand still, arms down, looking ahead."""
+        character.stop()
+        character.look_at(None)
+        character.pose("hang")

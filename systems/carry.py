@@ -1,0 +1,109 @@
+"""carry and drag: fetch a thing in one hand, then carry it somewhere or drag it away.
+
+Goal-driven. ``character.carry(target, to=None)``: approach the target, reach for it,
+grab it when the hand is close enough (a zero-length link), then walk to ``to`` (a
+point or entity) if given; done on arrival (still holding it). ``character.drag(target,
+distance=5)``: the same fetch, then walk straight away from where it lay for
+``distance`` metres, pulling it along; it lets go when the goal ends.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.character import GRAB_REACH
+from twig_ecs.errors import TwigError
+from twig_ecs.steering import ground_distance
+from twig_ecs.systems.approach import steer_to, target_point
+
+FETCH_TIME = 4.0  # s to get a hand on it once there
+
+
+def fetch(character, goal: Goal, target: str, hand: str) -> bool:
+    """Approach ``target`` and grab it in ``hand``; True once held."""
+    if hand in character.holding:
+        return True
+    m = goal.memory
+    scale = character._chars().scale[character._crow]
+    character.look_at(target)
+    if not m.get("near"):
+        if not steer_to(character, goal, target, 0.45 * scale):
+            return False
+        m["near"] = character.scene.time
+    other = character.scene.entity(target)
+    hand_node = ("l_hand", "r_hand")[hand == "right"]
+    pos = other.node_positions
+    nearest = other.node_names[int(np.argmin(np.linalg.norm(pos - character.node(hand_node), axis=1)))]
+    character.reach(target, hand=hand, node=nearest)
+    character.stoop(tuple(other.node(nearest)))  # get down to it if it is low
+    if np.linalg.norm(character.node(hand_node) - other.node(nearest)) < GRAB_REACH * scale:
+        try:
+            character.grab(target, hand=hand, node=nearest)
+            character.stoop(None)
+            return True
+        except TwigError:
+            pass
+    if character.scene.time - m["near"] > FETCH_TIME:
+        character.scene.end_goal(character, goal, False, f"could not get a hand on '{target}'")
+    return False
+
+
+@register
+class Carry(Behavior):
+    """Fetch a thing and carry it (somewhere)."""
+
+    name = "carry"
+    goal_driven = True
+    params = {"target": None, "to": None, "hand": "right"}
+
+    def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
+        """Fetch, then walk to the destination."""
+        p = goal.params
+        if not fetch(character, goal, p["target"], p["hand"]):
+            return
+        if p["to"] is None:
+            self.finish(character, goal)
+            return
+        if not goal.memory.get("carrying"):  # a new leg of the trip: reset stall tracking
+            goal.memory.pop("best", None)
+            goal.memory.pop("best_at", None)
+            goal.memory["carrying"] = True
+        if steer_to(character, goal, p["to"], 0.5, exclude=(p["target"],)):
+            self.finish(character, goal)
+
+    def stop(self, character, goal: Goal | None) -> None:
+        """Stand still (keep holding it)."""
+        character.stop()
+        character.stoop(None)
+        character.look_at(None)
+
+
+@register
+class Drag(Behavior):
+    """Grab a character or ragdoll and walk away pulling it."""
+
+    name = "drag"
+    goal_driven = True
+    params = {"target": None, "distance": 5.0, "hand": "right", "speed": 1.0}
+
+    def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
+        """Fetch, then walk away from where it lay."""
+        p = goal.params
+        m = goal.memory
+        if not fetch(character, goal, p["target"], p["hand"]):
+            return
+        if "start" not in m:
+            m["start"] = character.position
+            away = (character.position - target_point(character, p["target"])) * np.array([1.0, 0.0, 1.0])
+            m["away"] = away / max(float(np.linalg.norm(away)), 1e-9)
+        character.look_at(None)
+        character.walk(m["away"] * p["speed"])
+        if ground_distance(character.position, m["start"]) >= p["distance"]:
+            self.finish(character, goal)
+
+    def stop(self, character, goal: Goal | None) -> None:
+        """Let go and stand."""
+        character.release()
+        character.stop()
+        character.stoop(None)

@@ -1,0 +1,64 @@
+"""select_behavior: each character's highest activation wins and acts (SPEC 4).
+
+Reads the activations the behaviour systems proposed this step (on each character's
+:class:`~twig_ecs.behavior.Mind`); writes the winner and calls its ``act``, which sets
+the character's controller targets. Switching is stable: the current winner gets a
+bonus (``STICKINESS``) and keeps the floor for at least ``MIN_DWELL`` seconds unless
+a rival beats it by ``URGENT`` (a reflex such as pain withdrawal), so two behaviours
+with near-equal activations cannot trade places every frame.
+"""
+
+from __future__ import annotations
+
+import esper
+
+from twig_ecs.behavior import BehaviorChanged, Mind
+from twig_ecs.components import Character
+from twig_ecs.system import System
+
+STICKINESS = 0.05  # activation bonus of the current winner
+MIN_DWELL = 0.25  # s a winner keeps the floor against ordinary rivals
+URGENT = 0.3  # a rival this much stronger takes over at once
+IDLE = 0.1  # activation of doing nothing in particular
+
+
+class SelectBehaviorSystem(System):
+    """Picks each character's winning behaviour and lets it act."""
+
+    name = "select_behavior"
+
+    def process(self, dt: float) -> None:
+        """Select, switch (with hysteresis) and act, for every character."""
+        scene = self.scene
+        now = scene.time
+        behaviors = scene.behaviors
+        for entity, (_, mind) in esper.get_components(Character, Mind):
+            proposals = mind.activations
+            proposals.setdefault("idle", IDLE)
+            current = mind.winner if mind.winner in proposals else None
+            best = max(proposals, key=proposals.__getitem__)
+            if current is not None and best != current:
+                held = now - mind.since < MIN_DWELL
+                margin = proposals[best] - (proposals[current] + STICKINESS)
+                if margin <= 0.0 or (held and margin < URGENT):
+                    best = current
+            handle = scene.character_handle(entity)
+            goal = mind.goal
+            if best != mind.winner:
+                old = behaviors.get(mind.winner)
+                if old is not None:
+                    old.stop(handle, goal if goal is not None and goal.behavior == mind.winner else None)
+                scene.emit(BehaviorChanged(entity, mind.winner, best))
+                mind.winner, mind.since = best, now
+                mind.switches += 1
+                new = behaviors.get(best)
+                if new is not None:
+                    new.start(handle, goal if goal is not None and goal.behavior == best else None)
+            proposals.clear()
+            winner = behaviors.get(best)
+            if winner is None:
+                continue
+            own_goal = goal if goal is not None and goal.behavior == best else None
+            if own_goal is not None and own_goal.status == "pending":
+                own_goal.status, own_goal.started = "active", now
+            winner.act(handle, mind, own_goal, dt)

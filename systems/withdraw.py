@@ -1,0 +1,66 @@
+"""withdraw: the pain reflex - a fast, open-loop retreat from whatever hurt (SPEC 4).
+
+Reads this step's ``pain`` events; when a character is hurt it turns away from the
+body that hurt it and, for ``DURATION`` seconds, backs off at ``SPEED`` with its arms
+up and its eyes on the source. Its activation beats any commanded goal, so it wins at
+once; afterwards the interrupted goal carries on.
+"""
+
+from __future__ import annotations
+
+import esper
+import numpy as np
+
+from twig_ecs.behavior import Behavior, Mind, register
+from twig_ecs.components import Character
+
+DURATION = 0.8  # s of retreat per blow
+SPEED = 2.2  # m/s
+ACTIVATION = 1.3  # beats goals (0.8) by more than select_behavior's URGENT margin
+
+
+@register
+class Withdraw(Behavior):
+    """Pain withdrawal: back away from the source of a painful blow."""
+
+    name = "withdraw"
+
+    def setup(self) -> None:
+        """Remember, per character entity, when its retreat ends and which way it goes."""
+        self.until: dict[int, float] = {}
+        self.away: dict[int, np.ndarray] = {}
+        self.source: dict[int, int] = {}
+
+    def process(self, dt: float) -> None:
+        """Start retreats for this step's blows, then propose activations."""
+        scene = self.scene
+        for event in scene.events:
+            if event.kind != "pain" or not esper.has_component(event.body, Character):
+                continue
+            me = scene.character_handle(event.body)
+            other = scene.name_of(event.source_body)
+            there = scene.entity(other).position if other else me.position - me.facing
+            away = (me.position - there) * np.array([1.0, 0.0, 1.0])
+            norm = float(np.linalg.norm(away))
+            self.away[event.body] = away / norm if norm > 1e-6 else -me.facing
+            self.until[event.body] = scene.time + DURATION
+            self.source[event.body] = event.source_body
+        super().process(dt)
+
+    def activation(self, character, mind: Mind, goal) -> float:
+        """High while a retreat is running."""
+        return ACTIVATION if self.until.get(character.entity, -1.0) > self.scene.time else 0.0
+
+    def act(self, character, mind: Mind, goal, dt: float) -> None:
+        """Back off, arms up, watching the source."""
+        character.walk(self.away[character.entity] * SPEED)
+        character.pose("grapple")
+        source = self.scene.name_of(self.source[character.entity])
+        if source and source != character.name:
+            character.look_at(source)
+
+    def stop(self, character, goal) -> None:
+        """Stand, arms down."""
+        character.stop()
+        character.pose("hang")
+        character.look_at(None)

@@ -1,0 +1,165 @@
+"""Behaviour-based control (SPEC 4): behaviours, goals and the registry of behaviour kinds.
+
+Each behaviour kind is a :class:`Behavior` system. Every step it looks at the characters
+that have its component and proposes an *activation* (a utility) for each; the
+``select_behavior`` system then picks each character's winner and calls the winner's
+:meth:`Behavior.act`, which writes the character's *motor vector* - walk vector, arm
+modes and targets, gaze, posture - into the controllers' targets. Only winners act.
+
+Commands from Python or RPC become :class:`Goal` s: ``character.approach("ball")``
+queues a goal, the matching behaviour gives it a high activation while it runs, and its
+end is reported as a ``goal.done`` or ``goal.failed`` event (and to a callback).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import esper
+
+from twig_ecs.components import Character
+from twig_ecs.errors import TwigError
+from twig_ecs.events import Event
+from twig_ecs.system import System
+
+if TYPE_CHECKING:
+    from twig_ecs.character import CharacterHandle
+
+#: Activation of a commanded goal: above idle play, below reflexes like pain.
+GOAL_ACTIVATION = 0.8
+_goal_ids = itertools.count(1)
+
+
+@dataclass(slots=True, frozen=True)
+class GoalDone(Event):
+    """A goal finished as asked."""
+
+    kind: ClassVar[str] = "goal.done"
+    character: int
+    goal: int
+    behavior: str
+
+
+@dataclass(slots=True, frozen=True)
+class GoalFailed(Event):
+    """A goal could not be finished (``reason`` says why)."""
+
+    kind: ClassVar[str] = "goal.failed"
+    character: int
+    goal: int
+    behavior: str
+    reason: str
+
+
+@dataclass(slots=True, frozen=True)
+class BehaviorChanged(Event):
+    """A character's winning behaviour changed."""
+
+    kind: ClassVar[str] = "behavior.changed"
+    character: int
+    old: str
+    new: str
+
+
+@dataclass
+class Goal:
+    """A command to one character: run behaviour ``behavior`` with ``params`` until done."""
+
+    behavior: str
+    params: dict[str, Any]
+    id: int = field(default_factory=lambda: next(_goal_ids))
+    status: str = "pending"  # pending, active, done, failed
+    reason: str = ""
+    started: float = -1.0  # simulated time it became active
+    on_end: Callable[[Goal], None] | None = None
+    memory: dict[str, Any] = field(default_factory=dict)  # the behaviour's working state
+
+    @property
+    def finished(self) -> bool:
+        """Done or failed."""
+        return self.status in ("done", "failed")
+
+
+@dataclass(slots=True)
+class Mind:
+    """A character's behaviour state: its goals, activations and the current winner."""
+
+    goals: list[Goal] = field(default_factory=list)  # queued goals, the first is current
+    activations: dict[str, float] = field(default_factory=dict)  # this step's proposals
+    winner: str = "idle"
+    since: float = 0.0  # simulated time the winner won
+    switches: int = 0
+
+    @property
+    def goal(self) -> Goal | None:
+        """The current goal, if any."""
+        return self.goals[0] if self.goals else None
+
+
+class Behavior(System):
+    """Base class of behaviour systems: propose activations, act when winning.
+
+    Subclasses set ``name`` (the behaviour kind, also its schedule stage) and implement
+    :meth:`activation` and :meth:`act`. A behaviour driven by goals sets
+    ``goal_driven = True``: it is active while the character's current goal names it.
+    """
+
+    goal_driven: ClassVar[bool] = False
+    #: Parameters a goal of this kind accepts, with defaults (None: required).
+    params: ClassVar[dict[str, Any]] = {}
+
+    def process(self, dt: float) -> None:
+        """Propose this behaviour's activation for every character."""
+        scene = self.scene
+        for entity, (character, mind) in esper.get_components(Character, Mind):
+            handle = scene.character_handle(entity)
+            goal = mind.goal
+            if self.goal_driven:
+                if goal is None or goal.behavior != self.name:
+                    continue
+                value = self.activation(handle, mind, goal)
+            else:
+                value = self.activation(handle, mind, None)
+            if value > 0.0:
+                mind.activations[self.name] = value
+
+    def activation(self, character: CharacterHandle, mind: Mind, goal: Goal | None) -> float:
+        """How much this behaviour wants to run for this character now (0: not at all)."""
+        return GOAL_ACTIVATION if goal is not None else 0.0
+
+    def start(self, character: CharacterHandle, goal: Goal | None) -> None:
+        """Called when this behaviour starts winning for a character."""
+
+    def act(self, character: CharacterHandle, mind: Mind, goal: Goal | None, dt: float) -> None:
+        """Write the motor vector: walk, arms, gaze, posture targets."""
+
+    def stop(self, character: CharacterHandle, goal: Goal | None) -> None:
+        """Called when this behaviour stops winning (tidy up: release grabs, unlock)."""
+
+    # -- goal helpers for subclasses ------------------------------------------------------
+
+    def finish(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
+        """End ``goal`` (done or failed) and report it."""
+        character.scene.end_goal(character, goal, ok, reason)
+
+
+#: Behaviour kinds by name: the systems that implement them (filled by register()).
+REGISTRY: dict[str, type[Behavior]] = {}
+
+
+def register(cls: type[Behavior]) -> type[Behavior]:
+    """Make a behaviour kind known by its ``name`` (a class decorator)."""
+    if not cls.name:
+        raise TwigError(f"behaviour class {cls.__name__} needs a name")
+    REGISTRY[cls.name] = cls
+    return cls
+
+
+def load_builtin_behaviors() -> dict[str, type[Behavior]]:
+    """Import the built-in behaviour systems (they register themselves); return the registry."""
+    from twig_ecs.systems import approach, carry, grapple, hug, posture_goals, withdraw  # noqa: F401
+
+    return REGISTRY
