@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 from numba import njit
-from twig_ecs.systems.constrain import constraint_args, node_weight, project_limits, project_links, relax_once
 
 from twig_ecs.store import NODE_IN_CONTACT
 from twig_ecs.system import System
+from twig_ecs.systems.constrain import constraint_args, node_weight, project_limits, project_links, relax_once
 
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.

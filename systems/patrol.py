@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import esper
 import numpy as np
-from twig_ecs.components import Character
 
+from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS
 from twig_ecs.system import System
 

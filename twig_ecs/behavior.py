@@ -114,7 +114,7 @@ class Behavior(System):
     def process(self, dt: float) -> None:
         """Propose this behaviour's activation for every character."""
         scene = self.scene
-        for entity, (character, mind) in esper.get_components(Character, Mind):
+        for entity, (_, mind) in esper.get_components(Character, Mind):
             handle = scene.character_handle(entity)
             goal = mind.goal
             if self.goal_driven:
