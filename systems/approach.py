@@ -85,6 +85,7 @@ class Approach(Behavior):
     name = "approach"
     goal_driven = True
     params = {"target": None, "stop_distance": 0.6, "direction": None, "arms": None, "curl": True}
+    required = ("target",)
 
     def act(self, character, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Steer; look at the target; hold the arms as asked (reach, hug or grapple)."""

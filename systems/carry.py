@@ -56,6 +56,7 @@ class Carry(Behavior):
     name = "carry"
     goal_driven = True
     params = {"target": None, "to": None, "hand": "right"}
+    required = ("target",)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk to the destination."""
@@ -86,6 +87,7 @@ class Drag(Behavior):
     name = "drag"
     goal_driven = True
     params = {"target": None, "distance": 5.0, "hand": "right", "speed": 1.0}
+    required = ("target",)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk away from where it lay."""

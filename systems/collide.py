@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
 from twig_ecs.system import System
 from twig_ecs.systems.constrain import constraint_args, node_weight, project_limits, project_links, relax_once
 
@@ -162,6 +162,12 @@ def closest_segment_params(p1, q1, p2, q2):
     return s, t
 
 
+@njit(cache=True, inline="always")
+def _felt_weight(inv_mass, flags, i):
+    """Inverse mass for impact energy: 0 only when locked (a moving node has its mass)."""
+    return 0.0 if flags[i] & NODE_LOCKED else inv_mass[i]
+
+
 @njit(cache=True)
 def resolve_contacts(
     pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, record, dt
@@ -240,7 +246,19 @@ def resolve_contacts(
             )
             closing = -(ux * nx + uy * ny + uz * nz) / dt
             if closing > 0.0:
-                energy = 0.5 * closing * closing / w
+                # energy with real masses: a foot mid-step is kinematic to the solver
+                # (weight 0) but weighs what it weighs when it kicks something
+                we = (
+                    sa * sa * _felt_weight(inv_mass, flags, a)
+                    + s * s * _felt_weight(inv_mass, flags, b)
+                    + tc * tc * _felt_weight(inv_mass, flags, c)
+                    + t * t * _felt_weight(inv_mass, flags, d)
+                )
+                if b == a:
+                    we -= s * s * _felt_weight(inv_mass, flags, b)
+                if d == c:
+                    we -= t * t * _felt_weight(inv_mass, flags, d)
+                energy = 0.5 * closing * closing / we if we > 0.0 else 0.0
                 # the blow is felt by the side that was struck: the one that moved less
                 # towards the other (a fist lands on a face, not the face on the fist)
                 vi = -(

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from twig_ecs.store import (
+    LINK_GRAB,
     LINK_OFF,
     LINK_ROPE,
     NODE_IN_CONTACT,
@@ -22,6 +24,8 @@ from twig_ecs.store import (
 )
 from twig_ecs.system import System
 
+#: Speed (m/s) at which a new grab joint draws its two nodes together.
+GRAB_CLOSING = 0.6
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
 
@@ -300,5 +304,10 @@ class ConstrainSystem(System):
     name = "constrain"
 
     def process(self, dt: float) -> None:
-        """Relax all constraints ``settings.iterations`` times."""
+        """Close grab joints a little, then relax all constraints ``settings.iterations`` times."""
+        links = self.scene.state.links
+        n = links.count
+        closing = (links.flags[:n] & LINK_GRAB) != 0
+        if closing.any():
+            links.rest[:n][closing] = np.maximum(0.0, links.rest[:n][closing] - GRAB_CLOSING * dt)
         solve_constraints(self.scene.settings.iterations, *constraint_args(self.scene.state))

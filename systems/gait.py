@@ -50,8 +50,8 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
         nd = nodes[c]
         for f in range(2):
             swing[c, f] = max(0.0, swing[c, f] - dt)
-        if mode[c] != STAND:
-            continue
+        if mode[c] != STAND or flags[nd[PELVIS]] & NODE_LOCKED:
+            continue  # sitting, limp or frozen (a locked pelvis): no stepping
         # plant: a foot on the ground that is not mid-step locks in place
         for f in range(2):
             i = nd[L_FOOT + f]

@@ -15,12 +15,11 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.errors import TwigError
-from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
 WRAP_TIME = 3.0  # s to get both hands round
-TORSO = 0.13  # m (at 1.75 m tall): the upper spine's radius; two of them apart is touching
+LEAN_IN = 0.15  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
 
 
 @register
@@ -30,6 +29,7 @@ class Hug(Behavior):
     name = "hug"
     goal_driven = True
     params = {"target": None, "duration": 2.0}
+    required = ("target",)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release."""
@@ -45,12 +45,7 @@ class Hug(Behavior):
                 m["phase"], m["since"] = "wrap", character.scene.time
             return
         if phase == "wrap":
-            # keep closing in gently: the arms pull the two together once joined
-            if ground_distance(character.position, other.position) > CLOSE * scale:
-                away = other.position - character.position
-                character.walk(away / max(np.linalg.norm(away), 1e-9) * 0.4)
-            else:
-                character.stop()
+            character.stop()  # the feet stay put: the arms do the rest
             back = other.node("spine") + 0.12 * scale * _unit(other.node("spine") - character.node("spine"))
             for hand in ("left", "right"):
                 if hand in character.holding:
@@ -68,17 +63,20 @@ class Hug(Behavior):
             elif character.scene.time - m["since"] > WRAP_TIME:
                 self.finish(character, goal, False, "could not get both arms round")
             return
-        # hold: the arms draw the hands (and so the target's back) in towards the chest,
-        # until the two torsos meet and push back
+        # hold: the arms go slack (the grab joints keep the hands on its back) and the
+        # hugger leans in until the two torsos meet; pulling with the arms instead
+        # could wrench the target's torso inside out
         character.stop()
-        hold = character.node("neck") + character.shoulder_facing * TORSO * 2.5 * scale
-        hold[1] -= 0.1 * scale
-        character.reach(tuple(hold), hand="both")
+        character.pose("hang")
+        toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
+        toward /= max(float(np.linalg.norm(toward)), 1e-9)
+        character._chars().lean[character._crow] = toward * LEAN_IN * scale
         if character.scene.time - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
 
     def stop(self, character, goal: Goal | None) -> None:
-        """Let go and stand."""
+        """Let go and stand up straight."""
+        character.stoop(None)
         character.release()
         character.stop()
         character.look_at(None)

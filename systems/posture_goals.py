@@ -92,6 +92,7 @@ class Gesture(Behavior):
     name = "gesture"
     goal_driven = True
     params = {"name": None, "target": None, "duration": 2.0}
+    required = ("name",)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Hold the gesture; done after the duration."""

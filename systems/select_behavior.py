@@ -54,6 +54,7 @@ class SelectBehaviorSystem(System):
                 new = behaviors.get(best)
                 if new is not None:
                     new.start(handle, goal if goal is not None and goal.behavior == best else None)
+            mind.last = dict(proposals)
             proposals.clear()
             winner = behaviors.get(best)
             if winner is None:

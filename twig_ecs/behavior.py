@@ -89,6 +89,7 @@ class Mind:
 
     goals: list[Goal] = field(default_factory=list)  # queued goals, the first is current
     activations: dict[str, float] = field(default_factory=dict)  # this step's proposals
+    last: dict[str, float] = field(default_factory=dict)  # the proposals of the last selection
     winner: str = "idle"
     since: float = 0.0  # simulated time the winner won
     switches: int = 0
@@ -108,13 +109,22 @@ class Behavior(System):
     """
 
     goal_driven: ClassVar[bool] = False
-    #: Parameters a goal of this kind accepts, with defaults (None: required).
+    #: Parameters a goal of this kind accepts, with their defaults.
     params: ClassVar[dict[str, Any]] = {}
+    #: The parameters a goal must be given.
+    required: ClassVar[tuple[str, ...]] = ()
+    #: For a behaviour that characters *have* (rather than are commanded to do): the
+    #: component type holding its per-character parameters (a dataclass). Only
+    #: characters with that component are considered; scenes attach it with
+    #: ``behaviors: [{use: NAME, ...params}]`` on a character.
+    component: ClassVar[type | None] = None
 
     def process(self, dt: float) -> None:
         """Propose this behaviour's activation for every character."""
         scene = self.scene
         for entity, (_, mind) in esper.get_components(Character, Mind):
+            if self.component is not None and not esper.has_component(entity, self.component):
+                continue
             handle = scene.character_handle(entity)
             goal = mind.goal
             if self.goal_driven:
@@ -141,6 +151,10 @@ class Behavior(System):
 
     # -- goal helpers for subclasses ------------------------------------------------------
 
+    def settings(self, character: CharacterHandle) -> Any:
+        """This behaviour's component on a character (its per-character parameters)."""
+        return esper.component_for_entity(character.entity, self.component)
+
     def finish(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """End ``goal`` (done or failed) and report it."""
         character.scene.end_goal(character, goal, ok, reason)
@@ -162,4 +176,62 @@ def load_builtin_behaviors() -> dict[str, type[Behavior]]:
     """Import the built-in behaviour systems (they register themselves); return the registry."""
     from twig_ecs.systems import approach, carry, grapple, hug, posture_goals, withdraw  # noqa: F401
 
-    return REGISTRY
+    return {k: v for k, v in REGISTRY.items() if v.__module__.startswith("twig_ecs.")}
+
+
+#: Entry point group through which installed packages offer behaviours.
+ENTRY_POINT_GROUP = "twig_ecs.behaviors"
+
+
+def installed_behaviors() -> dict[str, Any]:
+    """Behaviours offered by installed packages (entry points), by name, not yet loaded."""
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def load_class(reference: str, base_dir: str | None = None) -> type:
+    """The class named by ``"package.module:Class"`` or ``"path/to/file.py:Class"``.
+
+    A file path is taken relative to ``base_dir`` (the scene file's folder). Raises
+    TwigError with the reason when the module or class cannot be had.
+    """
+    import importlib
+    import importlib.util
+    from pathlib import Path
+
+    module_name, sep, class_name = reference.partition(":")
+    if not sep or not module_name or not class_name:
+        raise TwigError(f"expected 'module:Class' or 'file.py:Class', got '{reference}'")
+    try:
+        if module_name.endswith(".py"):
+            path = Path(module_name)
+            if not path.is_absolute() and base_dir is not None:
+                path = Path(base_dir) / path
+            if not path.is_file():
+                raise TwigError(f"no such file '{path}'")
+            import sys
+
+            name = f"twig_plugin_{path.stem}"
+            spec = importlib.util.spec_from_file_location(name, path)
+            assert spec is not None and spec.loader is not None
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module  # dataclasses and pickling look modules up here
+            try:
+                spec.loader.exec_module(module)
+            except BaseException:
+                del sys.modules[name]
+                raise
+        else:
+            module = importlib.import_module(module_name)
+    except TwigError:
+        raise
+    except Exception as exc:  # a broken plug-in: say what broke, not a traceback
+        raise TwigError(f"cannot import '{module_name}': {type(exc).__name__}: {exc}") from None
+    try:
+        return getattr(module, class_name)
+    except AttributeError:
+        names = [n for n in dir(module) if not n.startswith("_")]
+        from twig_ecs.validate import suggest
+
+        raise TwigError(f"'{module_name}' has no '{class_name}'" + suggest(class_name, names)) from None

@@ -489,9 +489,7 @@ class CharacterHandle(BodyHandle):
             raise TwigError(f"{behavior}: unknown parameter(s) {', '.join(sorted(unknown))} "
                             f"(takes: {', '.join(system.params) or 'none'})")  # fmt: skip
         merged = {**system.params, **params}
-        missing = [
-            k for k, v in merged.items() if v is None and system.params.get(k, 0) is None and k in ("target",)
-        ]
+        missing = [k for k in system.required if merged.get(k) is None]
         if missing:
             raise TwigError(f"{behavior}: needs {', '.join(missing)}")
         for key in ("target", "to", "on"):

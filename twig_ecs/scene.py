@@ -107,8 +107,23 @@ class Scene:
         scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
         scene.source = plan.file
         try:
+            for system_spec in plan.systems:
+                item, here = system_spec.where
+                try:
+                    scene.add_system(system_spec.cls(), name=system_spec.name, before=system_spec.before,
+                                     after=system_spec.after)  # fmt: skip
+                except TwigError as exc:
+                    file, line = item.where("use")
+                    raise SceneError(str(exc), file, line, here) from None
+                except Exception as exc:  # a plug-in whose constructor breaks
+                    file, line = item.where("use")
+                    raise SceneError(
+                        f"cannot create {system_spec.cls.__name__}: {exc}", file, line, here
+                    ) from None
             for spec in plan.entities:
                 scene._spawn_spec(spec)
+                for behavior in spec.behaviors:
+                    esper.add_component(scene._names[spec.name], behavior.component)
             for i, spec in enumerate(plan.entities):  # starting commands may name later entities
                 if spec.character is not None and spec.character.start:
                     try:
@@ -204,7 +219,8 @@ class Scene:
     def grab(self, holder: str, node: str, target: str, target_node: str) -> int:
         """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a zero-length link.
 
-        The two nodes are pulled together by the constraint solver (a ball joint, SPEC 3).
+        The two nodes are drawn together by the constraint solver over a few steps and
+        then held (a ball joint, SPEC 3).
         Returns the grab joint's entity; :meth:`release` removes it.
         """
         self.activate()
@@ -215,7 +231,9 @@ class Scene:
         links = self.state.links
         row = links.allocate(1).start
         links.a[row], links.b[row] = a, b
-        links.rest[row] = 0.0
+        # the joint starts at the nodes' distance and closes at GRAB_CLOSING m/s (see
+        # ConstrainSystem): a hand pulls the thing in, it does not snap to it
+        links.rest[row] = float(np.linalg.norm(self.state.nodes.pos[a] - self.state.nodes.pos[b]))
         links.flags[row] = LINK_GRAB
         links.body[row] = h.body.index
         entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))

@@ -12,10 +12,13 @@ from pathlib import Path
 
 import numpy as np
 
+from twig_ecs.behavior import Behavior, installed_behaviors, load_builtin_behaviors, load_class
 from twig_ecs.character import CharacterSpec
 from twig_ecs.components import PainSensor
+from twig_ecs.errors import TwigError
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.store import ROLES
+from twig_ecs.system import System
 from twig_ecs.templates import (
     BodyTemplate,
     Damping,
@@ -40,10 +43,11 @@ from twig_ecs.validate import (
 )
 from twig_ecs.yamldoc import YDict
 
-SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "entities")
+SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "systems", "entities")
+SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
-               "character")  # fmt: skip
+               "character", "behaviors")  # fmt: skip
 CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
                   "patrol")  # fmt: skip
 
@@ -71,6 +75,26 @@ class EntitySpec:
     pain: PainSensor | None | bool = True  # True: the template's own
     damping: Damping | None = None
     character: CharacterSpec | None = None
+    behaviors: list[BehaviorSpec] = field(default_factory=list)
+
+
+@dataclass
+class SystemSpec:
+    """A user system named in the scene's ``systems:`` list."""
+
+    cls: type
+    name: str | None
+    before: str | None
+    after: str | None
+    where: tuple[YDict, str]  # the YAML mapping and its path, for errors at build time
+
+
+@dataclass
+class BehaviorSpec:
+    """A behaviour a character has (``behaviors:`` on an entity): its component."""
+
+    name: str
+    component: object
 
 
 @dataclass
@@ -82,6 +106,7 @@ class ScenePlan:
     settings: Settings
     entities: list[EntitySpec]
     library: ContentLibrary
+    systems: list[SystemSpec] = field(default_factory=list)
 
 
 def read_settings(doc: YDict) -> Settings:
@@ -225,6 +250,9 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
             library.add_template(str(tname), templates[tname], join("templates", str(tname)))
         for tname in templates:  # compile now so errors surface at load
             library.template(str(tname))
+    systems = read_systems(doc, path)
+    known = dict(load_builtin_behaviors())
+    known.update({spec.cls.name: spec.cls for spec in systems if issubclass(spec.cls, Behavior)})
     entities = []
     seen: dict[str, int] = {}
     raw_entities = read(doc, "entities", "", sequence, [])
@@ -240,6 +268,7 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
                 f"duplicate entity name '{spec.name}' (first used by entities[{seen[spec.name]}])",
             )
         seen[spec.name] = i
+        spec.behaviors = read_behaviors(raw, here, known, systems, spec)
         entities.append(spec)
     for i, spec in enumerate(entities):  # names in character commands must exist
         if spec.character is None:
@@ -258,4 +287,70 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
         settings=read_settings(doc),
         entities=entities,
         library=library,
+        systems=systems,
     )
+
+
+def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
+    """The ``systems:`` list: user systems to load and where they go in the schedule."""
+    out = []
+    raw = read(doc, "systems", "", sequence, [])
+    for i, item in enumerate(raw):
+        here = f"systems[{i}]"
+        item = read(raw, i, "systems", mapping)
+        check_keys(item, here, SYSTEM_KEYS)
+        reference = read(item, "use", here, text)
+        try:
+            cls = load_class(reference, str(path.parent))
+        except TwigError as exc:
+            fail(item, "use", join(here, "use"), str(exc))
+        if not (isinstance(cls, type) and issubclass(cls, System)):
+            fail(item, "use", join(here, "use"), f"'{reference}' is not a twig_ecs System subclass")
+        before = read(item, "before", here, text, None)
+        after = read(item, "after", here, text, None)
+        if issubclass(cls, Behavior) and before is None and after is None:
+            after, before = "sense", "select_behavior"  # behaviours propose before selection
+        out.append(SystemSpec(cls, read(item, "name", here, text, None), before, after, (item, here)))
+    return out
+
+
+def read_behaviors(raw: YDict, path: str, known: dict, systems: list[SystemSpec],
+                   spec: EntitySpec) -> list[BehaviorSpec]:  # fmt: skip
+    """An entity's ``behaviors:`` list: [{use: NAME, ...parameters}]."""
+    if "behaviors" not in raw:
+        return []
+    if spec.character is None:
+        fail(
+            raw, "behaviors", join(path, "behaviors"), "only characters have behaviours (add character: true)"
+        )
+    out = []
+    items = read(raw, "behaviors", path, sequence)
+    for i, item in enumerate(items):
+        here = f"{join(path, 'behaviors')}[{i}]"
+        item = read(items, i, join(path, "behaviors"), mapping)
+        name = read(item, "use", here, text)
+        if name not in known:
+            installed = installed_behaviors()
+            if name in installed:
+                try:
+                    cls = installed[name].load()
+                except Exception as exc:  # a broken installed plug-in
+                    fail(item, "use", join(here, "use"), f"cannot load behaviour '{name}': {exc}")
+                known[name] = cls
+                systems.append(SystemSpec(cls, None, "select_behavior", None, (item, here)))
+                systems[-1].before, systems[-1].after = "select_behavior", "sense"
+            else:
+                hint = suggest(name, list(known) + list(installed))
+                fail(item, "use", join(here, "use"), f"unknown behaviour '{name}'" + hint)
+        cls = known[name]
+        if getattr(cls, "component", None) is None:
+            fail(
+                item, "use", join(here, "use"), f"behaviour '{name}' takes commands (goals), not a place here"
+            )
+        params = {k: v for k, v in item.items() if k != "use"}
+        try:
+            component = cls.component(**params)
+        except TypeError as exc:
+            fail(item, "use", here, f"bad parameters for '{name}': {exc}")
+        out.append(BehaviorSpec(name, component))
+    return out

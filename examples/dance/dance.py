@@ -1,0 +1,56 @@
+"""A plug-in behaviour: characters with a DanceMood dance when nothing else matters more.
+
+It shows the whole recipe of docs/authoring-behaviours.md: a component (the
+per-character parameters), a Behavior system that proposes an activation and, when it
+wins, writes the character's motor vector through the CharacterHandle API.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from twig_ecs.behavior import Behavior
+
+
+@dataclass(slots=True)
+class DanceMood:
+    """How much a character wants to dance, and how fast."""
+
+    joy: float = 0.5  # activation: above idle (0.1), below commanded goals (0.8)
+    tempo: float = 1.0  # sways per second
+    sway: float = 0.5  # m/s of the side-to-side steps
+
+
+class Dance(Behavior):
+    """Sway from side to side, arms up in turns, while the mood lasts."""
+
+    name = "dance"
+    component = DanceMood
+
+    def activation(self, character, mind, goal) -> float:
+        """As joyful as the character's mood, unless it has something to do."""
+        return 0.0 if mind.goals else self.settings(character).joy
+
+    def start(self, character, goal) -> None:
+        """Remember where the dance floor is."""
+        self.home = getattr(self, "home", {})
+        self.home[character.entity] = character.position.copy()
+
+    def act(self, character, mind, goal, dt: float) -> None:
+        """Step left and right round the spot, waving one arm and then the other."""
+        mood = self.settings(character)
+        phase = 2 * math.pi * mood.tempo * character.scene.time
+        side = character.facing[[2, 0]] * [1, -1]  # the character's left, on the ground
+        drift = self.home[character.entity] - character.position
+        vx = side[0] * mood.sway * math.sin(phase) + 0.5 * drift[0]
+        vz = side[1] * mood.sway * math.sin(phase) + 0.5 * drift[2]
+        character.walk((vx, 0.0, vz))
+        up, down = ("left", "right") if math.sin(phase) > 0 else ("right", "left")
+        character.gesture("wave", hand=up)
+        character.pose("hang", hand=down)
+
+    def stop(self, character, goal) -> None:
+        """Stand still, arms down."""
+        character.stop()
+        character.gesture(None, hand="both")

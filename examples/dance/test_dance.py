@@ -1,0 +1,59 @@
+"""The example plug-in loads from YAML, wins when nothing else does, and yields to goals."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene, SceneError
+
+HERE = Path(__file__).parent
+
+
+@pytest.fixture
+def floor():
+    scene = Scene.load(HERE / "scene.yaml")
+    yield scene
+    scene.close()
+
+
+def test_the_dancer_dances_and_the_wallflower_does_not(floor):
+    dancer, wallflower = floor.entity("dancer"), floor.entity("wallflower")
+    start = dancer.position
+    xs = []
+    for _ in range(240):
+        floor.step()
+        xs.append(dancer.position[0])
+    assert dancer.behaviour == "dance" and wallflower.behaviour == "idle"
+    assert np.ptp(xs) > 0.1, "it sways from side to side"
+    assert np.linalg.norm((dancer.position - start)[[0, 2]]) < 0.5, "round the same spot"
+    assert dancer.mind.switches <= 2, "no flicker between dance and idle"
+
+
+def test_a_command_outranks_the_dance(floor):
+    dancer = floor.entity("dancer")
+    floor.run(1.0)
+    goal = dancer.approach((0.0, 0.0, 3.0), stop_distance=0.3)
+    floor.run(6.0)
+    assert goal.status == "done"
+    floor.run(0.5)
+    assert dancer.behaviour == "dance", "it goes back to dancing"
+
+
+def test_a_misspelled_plug_in_is_reported_with_file_and_line(tmp_path):
+    scene = tmp_path / "bad.yaml"
+    scene.write_text(f"twig: 1\nsystems:\n  - use: {HERE / 'dance.py'}:Dnace\nentities: []\n")
+    with pytest.raises(
+        SceneError, match=r"bad.yaml:3: systems\[0\].use: .* has no 'Dnace' \(did you mean 'Dance'\?\)"
+    ):
+        Scene.load(scene)
+    scene.write_text(
+        f"twig: 1\nsystems:\n  - use: {HERE / 'dance.py'}:Dance\nentities:\n"
+        "  - {name: d, body: humanoid, character: true, behaviors: [{use: danse}]}\n"
+    )
+    with pytest.raises(
+        SceneError, match=r"bad.yaml:5: entities\[0\].behaviors\[0\].use: unknown behaviour 'danse'"
+    ):
+        Scene.load(scene)
