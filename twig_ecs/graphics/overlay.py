@@ -106,9 +106,35 @@ def _arms(handle) -> str:
     return f"{modes['left']}/{modes['right']}"
 
 
+def _goal(handle) -> str:
+    goals = handle.goals
+    if not goals:
+        return "-"
+    more = f" +{len(goals) - 1}" if len(goals) > 1 else ""
+    return f"{goals[0].behavior}#{goals[0].id} {goals[0].status}{more}"
+
+
+BAR_BLOCKS = " ▏▎▍▌▋▊▉█"
+
+
+def activation_bar(value: float, width: int = 6) -> str:
+    """A text bar of ``width`` cells for an activation (1.0 fills it)."""
+    eighths = max(0, min(width * 8, round(value * width * 8)))
+    full, rest = divmod(eighths, 8)
+    return "█" * full + (BAR_BLOCKS[rest] if rest else "") + " " * (width - full - (1 if rest else 0))
+
+
+def _activations(handle) -> str:
+    last = handle.mind.last
+    top = sorted(last.items(), key=lambda kv: -kv[1])[:3]
+    return "  ".join(f"{name[:8]} {activation_bar(value)}" for name, value in top) or "-"
+
+
 #: Inspector columns after the name, in order. Add more with :func:`add_inspector_field`.
 INSPECTOR_FIELDS: dict[str, InspectorField] = {
     "behaviour": _behaviour,
+    "goal": _character_field(_goal),
+    "activations": _character_field(_activations),
     "pain": _pain,
     "posture": _character_field(lambda h: h.posture),
     "m/s": _character_field(_speed),
