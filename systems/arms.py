@@ -7,8 +7,8 @@ carries its own weight and its hand is pulled to its target by a spring-damper
 the gait's swing impulses. Grabbing is a zero-length link made by the Python API.
 
 Targets, with S the shoulder, F the shoulders' forward, L the arm's length:
-REACH a point or node; GRAPPLE S + 0.55 L F, a little low and in; HUG S + 0.85 L F,
-a little in (hands straight ahead near full extension); WAVE above the shoulder,
+REACH a point or node; GRAPPLE S + 0.55 L F, a little low and in; HUG S + 0.7 L F,
+0.45 L out (arms open wide ahead, near full extension); WAVE above the shoulder,
 swaying; POINT S + L towards the target; CARRY S + 0.45 L F, 0.55 L down.
 """
 
@@ -77,9 +77,9 @@ def control_arms(pos, prev, acc, nodes, arm_mode, arm_point, arm_node, gesture_p
                 tx += 0.55 * length * fx - 0.15 * length * ox
                 ty -= 0.15 * length
                 tz += 0.55 * length * fz - 0.15 * length * oz
-            elif mode == HUG:
-                tx += 0.85 * length * fx - 0.25 * length * ox
-                tz += 0.85 * length * fz - 0.25 * length * oz
+            elif mode == HUG:  # arms open wide, ready to close round someone
+                tx += 0.7 * length * fx + 0.45 * length * ox
+                tz += 0.7 * length * fz + 0.45 * length * oz
             elif mode == WAVE:
                 sway = 0.3 * length * math.sin(gesture_phase[c])
                 tx += 0.15 * length * fx + (0.2 * length + sway) * ox

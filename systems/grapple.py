@@ -15,7 +15,7 @@ from twig_ecs.systems.approach import steer_to
 ARMS_LENGTH = 0.55  # m (at 1.75 m tall): where the fight starts
 PUNCH = 0.4  # s per blow; the hands take turns
 THROUGH = 0.3  # m (at 1.75 m tall) beyond the struck point that a punch aims at
-PUNCH_SPEED = 7.0  # m/s of a thrown fist
+PUNCH_SPEED = 9.0  # m/s of a thrown fist
 
 
 @register

@@ -1,7 +1,8 @@
 """patrol: walk characters round a loop of waypoints (a starting command for demos).
 
 Reads each patrolling character's route (on its Character component) and pelvis
-position; writes its walk vector. Per-character Python: meant for a handful of scripted
+position; writes its walk vector - unless a behaviour other than idle is winning, which
+then has the character to itself. Per-character Python: meant for a handful of scripted
 walkers in a scene, not crowds (behaviours do the real steering).
 """
 
@@ -10,6 +11,7 @@ from __future__ import annotations
 import esper
 import numpy as np
 
+from twig_ecs.behavior import Mind
 from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS
 from twig_ecs.system import System
@@ -25,9 +27,12 @@ class PatrolSystem(System):
     def process(self, dt: float) -> None:
         """Point each patrolling character's walk vector at its next waypoint."""
         ch, pos = self.scene.state.characters, self.scene.state.nodes.pos
-        for _, character in esper.get_component(Character):
+        for entity, character in esper.get_component(Character):
             if not character.route:
                 continue
+            mind = esper.try_component(entity, Mind)
+            if mind is not None and mind.winner != "idle":
+                continue  # a behaviour is in charge: the patrol waits
             row = character.index
             here = pos[ch.nodes[row, PELVIS]][[0, 2]]
             target = np.asarray(character.route[character.waypoint])
