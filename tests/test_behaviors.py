@@ -214,3 +214,41 @@ def test_goal_commands_check_their_arguments(pair):
         a.hug("a")
     with pytest.raises(TwigError, match="approach arms must be"):
         a.approach("b", arms="tickle")
+
+
+def test_carry_fetches_a_ball_and_brings_it_to_a_place(pair):
+    a = pair.entity("a")
+    ball = pair.spawn("ball", name="ball", position=(-1.0, 0.0, 1.0))
+    goal = a.carry("ball", to=(2.0, 0.0, -2.0))
+    run_until(pair, goal, 30.0)
+    assert goal.status == "done", goal.reason
+    assert a.holding == {"right": "ball"}
+    assert np.hypot(*(ball.position - np.array([2.0, 0.0, -2.0]))[[0, 2]]) < 1.0
+    assert ball.position[1] > 0.3, "it is carried, not rolled"
+
+
+def test_an_installed_package_offers_a_behaviour_by_entry_point(tmp_path, monkeypatch, scenes):
+    # a real (if tiny) installed distribution: a module and its dist-info on sys.path
+    (tmp_path / "shimmy_pkg.py").write_text(
+        "from dataclasses import dataclass\n"
+        "from twig_ecs.behavior import Behavior\n\n"
+        "@dataclass\nclass Mood:\n    joy: float = 0.5\n\n"
+        "class Shimmy(Behavior):\n    name = 'shimmy'\n    component = Mood\n\n"
+        "    def activation(self, character, mind, goal):\n        return self.settings(character).joy\n\n"
+        "    def act(self, character, mind, goal, dt):\n        character.gesture('wave', hand='both')\n"
+    )
+    info = tmp_path / "shimmy_pkg-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: shimmy-pkg\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[twig_ecs.behaviors]\nshimmy = shimmy_pkg:Shimmy\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    scene_file = tmp_path / "party.yaml"
+    scene_file.write_text(
+        "twig: 1\nentities:\n  - {name: s, body: humanoid, character: true, behaviors: [{use: shimmy, joy: 0.7}]}\n"
+    )
+    scene = Scene.load(scene_file)
+    scenes.append(scene)
+    scene.run(1.0)
+    shimmer = scene.entity("s")
+    assert shimmer.behaviour == "shimmy"
+    assert shimmer.arm_modes == {"left": "wave", "right": "wave"}
