@@ -244,7 +244,8 @@ def test_an_installed_package_offers_a_behaviour_by_entry_point(tmp_path, monkey
     monkeypatch.syspath_prepend(str(tmp_path))
     scene_file = tmp_path / "party.yaml"
     scene_file.write_text(
-        "twig: 1\nentities:\n  - {name: s, body: humanoid, character: true, behaviors: [{use: shimmy, joy: 0.7}]}\n"
+        "twig: 1\nentities:\n"
+        "  - {name: s, body: humanoid, character: true, behaviors: [{use: shimmy, joy: 0.7}]}\n"
     )
     scene = Scene.load(scene_file)
     scenes.append(scene)
