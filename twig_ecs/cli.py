@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 from collections.abc import Sequence
@@ -99,11 +100,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", choices=["text", "json"], default="text", help="report format")
     p.set_defaults(func=cmd_run)
 
-    try:
-        from twig_ecs.graphics.cli import register_commands
-    except ImportError:  # graphics not built yet in this checkout
-        pass
-    else:
+    for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli"):
+        try:
+            register_commands = importlib.import_module(module).register_commands
+        except ImportError:  # a part not built in this checkout
+            continue
         register_commands(sub, _add_scene_args)
     return parser
 

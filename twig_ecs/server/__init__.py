@@ -1,0 +1,1 @@
+"""Server mode: an asynchronous JSON-RPC command interface for a drama manager (SPEC 6)."""
