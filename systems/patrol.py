@@ -31,8 +31,8 @@ class PatrolSystem(System):
             if not character.route:
                 continue
             mind = esper.try_component(entity, Mind)
-            if mind is not None and mind.winner != "idle":
-                continue  # a behaviour is in charge: the patrol waits
+            if mind is not None and (mind.winner != "idle" or not mind.autonomous):
+                continue  # a behaviour is in charge, or the character is scripted: it waits
             row = character.index
             here = pos[ch.nodes[row, PELVIS]][[0, 2]]
             target = np.asarray(character.route[character.waypoint])

@@ -24,6 +24,7 @@ class Withdraw(Behavior):
     """Pain withdrawal: back away from the source of a painful blow."""
 
     name = "withdraw"
+    reflex = True
 
     def setup(self) -> None:
         """Remember, per character entity, when its retreat ends and which way it goes."""

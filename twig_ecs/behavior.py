@@ -93,6 +93,7 @@ class Mind:
     winner: str = "idle"
     since: float = 0.0  # simulated time the winner won
     switches: int = 0
+    autonomous: bool = True  # False: only goals (and reflexes) move it - scripted by a drama manager
 
     @property
     def goal(self) -> Goal | None:
@@ -118,6 +119,8 @@ class Behavior(System):
     #: characters with that component are considered; scenes attach it with
     #: ``behaviors: [{use: NAME, ...params}]`` on a character.
     component: ClassVar[type | None] = None
+    #: A reflex (pain withdrawal) runs even for a scripted, non-autonomous character.
+    reflex: ClassVar[bool] = False
 
     def process(self, dt: float) -> None:
         """Propose this behaviour's activation for every character."""
@@ -125,6 +128,8 @@ class Behavior(System):
         for entity, (_, mind) in esper.get_components(Character, Mind):
             if self.component is not None and not esper.has_component(entity, self.component):
                 continue
+            if not (self.goal_driven or self.reflex or mind.autonomous):
+                continue  # a scripted character does only what it is told
             handle = scene.character_handle(entity)
             goal = mind.goal
             if self.goal_driven:

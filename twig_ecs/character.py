@@ -538,6 +538,17 @@ class CharacterHandle(BodyHandle):
         """Hold every node still (for ``duration`` s, or until the next goal)."""
         return self.do("freeze", on_end=on_end, duration=duration)
 
+    @property
+    def autonomous(self) -> bool:
+        """Does it act on its own (behaviours it has, patrols), or only on goals and reflexes?"""
+        return self.mind.autonomous
+
+    @autonomous.setter
+    def autonomous(self, value: bool) -> None:
+        self.mind.autonomous = bool(value)
+        if not value:
+            self.stop()
+
     def cancel_goals(self) -> None:
         """Fail every queued goal (reason "cancelled")."""
         for goal in list(self.mind.goals):
