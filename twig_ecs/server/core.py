@@ -1,0 +1,538 @@
+"""The asyncio server: client sessions, the command queue and the simulation's own loop.
+
+One thread, one event loop. Sessions read request lines, check them and queue
+commands; only the simulation task touches the scene: at 60 Hz (or when stepped,
+while paused) it steps, then applies the queued commands in arrival order, so every
+command lands between two steps. Answers and notifications are written without
+waiting for the client: a session that stops reading is first not read from (at most
+:data:`MAX_INFLIGHT` unanswered requests each) and, if its unsent output passes
+:data:`MAX_UNSENT` bytes, disconnected - the simulation never waits for a client.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import hmac
+import inspect
+import itertools
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import esper
+
+from twig_ecs.behavior import BehaviorChanged, GoalDone, GoalFailed
+from twig_ecs.character import CharacterHandle
+from twig_ecs.components import Character
+from twig_ecs.errors import TwigError
+from twig_ecs.events import Contact, Pain
+from twig_ecs.server import protocol as rpc
+from twig_ecs.server.methods import METHODS, Method, bind
+from twig_ecs.server.protocol import RPCError
+from twig_ecs.validate import suggest
+
+#: Default ports: JSON-RPC, and the Twig line protocol when it is switched on.
+DEFAULT_PORT = 7470
+DEFAULT_TWIG_PORT = 10001
+#: Unanswered requests one JSON-RPC client may have queued before it is no longer read.
+MAX_INFLIGHT = 64
+#: Unsent bytes to one client beyond which it is disconnected as too slow.
+MAX_UNSENT = 8 << 20
+#: Most simulation steps run to catch up after a stall (then the clock drops the rest).
+MAX_CATCH_UP = 5
+#: Longest the loop spends applying queued commands before stepping again (s).
+COMMAND_BUDGET = 0.008
+_session_ids = itertools.count(1)
+
+
+@dataclass(slots=True)
+class Command:
+    """A checked request waiting for the simulation loop."""
+
+    session: Session
+    method: Method
+    params: dict[str, Any]
+    done: Callable[[Any, RPCError | None], None]
+
+
+class Session:
+    """One connected client. Subclasses speak JSON-RPC or the Twig line protocol."""
+
+    inflight_limit = MAX_INFLIGHT
+
+    def __init__(self, server: Server, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self.server = server
+        self.reader = reader
+        self.writer = writer
+        self.id = next(_session_ids)
+        self.peer = writer.get_extra_info("peername")
+        self.subscriptions: set[str] = set()
+        self.authenticated = server.token is None
+        self.inflight = asyncio.Semaphore(self.inflight_limit)
+        self.closed = False
+
+    # -- output (never waits) --------------------------------------------------------------
+
+    def write(self, data: bytes) -> None:
+        if self.closed:
+            return
+        self.writer.write(data)
+        unsent = self.writer.transport.get_write_buffer_size()
+        if unsent > MAX_UNSENT:
+            self.server.log(f"client {self.peer} is {unsent >> 20} MiB behind: disconnected")
+            self.abort()
+
+    def abort(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.writer.transport.abort()
+
+    def send_event(self, kind: str, params: dict[str, Any]) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # -- input -------------------------------------------------------------------------------
+
+    async def greet(self) -> None:
+        """Anything sent on connect."""
+
+    async def serve(self) -> None:
+        """Read lines until the client goes; each is handled without waiting for its answer."""
+        lines = rpc.LineReader(self.reader)
+        try:
+            await self.greet()
+            while not self.closed:
+                if self.writer.transport.get_write_buffer_size() > 1 << 20:
+                    await self.writer.drain()  # it is not reading: stop reading it too
+                await self.inflight.acquire()
+                line = await lines.next()
+                if line is None:
+                    break
+                if line is rpc.TOO_LONG:
+                    self.handle_too_long()
+                    continue
+                self.handle_line(line)
+        except (ConnectionError, asyncio.IncompleteReadError):
+            pass
+        finally:
+            self.closed = True
+            self.writer.close()
+
+    def handle_too_long(self) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def handle_line(self, line: bytes) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def call(
+        self, name: str, params: dict[str, Any] | list[Any], done: Callable[[Any, RPCError | None], None]
+    ) -> None:
+        """Check and run (or queue) one call; ``done(result, error)`` is called exactly once."""
+        method = METHODS.get(name)
+        if method is None:
+            done(None, RPCError(rpc.METHOD_NOT_FOUND, f"unknown method '{name}'" + suggest(name, METHODS)))
+            return
+        if not self.authenticated and name != "auth":
+            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
+            self.close_soon()
+            return
+        try:
+            params = bind(method, params)
+        except RPCError as exc:
+            done(None, exc)
+            return
+        if name == "auth":
+            token = self.server.token
+            if token is not None and not hmac.compare_digest(params["token"].encode(), token.encode()):
+                done(None, RPCError(rpc.UNAUTHORIZED, "wrong token"))
+                self.close_soon()
+                return
+            self.authenticated = True
+        if method.queued:
+            self.server.submit(Command(self, method, params, done))
+        else:
+            done(method.fn(self.server, self, **params), None)
+
+    def close_soon(self) -> None:
+        """Close after what was written is sent."""
+        self.closed = True
+        self.writer.close()
+
+
+class JsonSession(Session):
+    """A JSON-RPC 2.0 client: one request (or batch) per line, answers by id."""
+
+    def send_event(self, kind: str, params: dict[str, Any]) -> None:
+        self.write(rpc.dumps(rpc.notification(kind, params)))
+
+    def _send(self, obj: Any) -> None:
+        self.write(rpc.dumps(obj))
+
+    def handle_too_long(self) -> None:
+        error = RPCError(rpc.INVALID_REQUEST, f"request line longer than {rpc.MAX_LINE} bytes: refused")
+        self._send(rpc.error_response(None, error))
+        self.inflight.release()
+
+    def handle_line(self, line: bytes) -> None:
+        if not line.strip():
+            self.inflight.release()
+            return
+        try:
+            obj = rpc.loads(line)
+        except RPCError as exc:
+            self._send(rpc.error_response(None, exc))
+            self.inflight.release()
+            return
+        if isinstance(obj, list):
+            self._batch(obj)
+        else:
+            self._one(obj, self._finish_line)
+
+    def _finish_line(self, answer: dict[str, Any] | None) -> None:
+        if answer is not None:
+            self._send(answer)
+        self.inflight.release()
+
+    def _one(self, obj: Any, done: Callable[[dict[str, Any] | None], None]) -> None:
+        try:
+            request = rpc.parse_request(obj)
+        except RPCError as exc:
+            done(rpc.error_response(rpc.request_id(obj), exc))
+            return
+
+        def answer(result: Any, error: RPCError | None) -> None:
+            if request.notify:
+                done(None)
+            elif error is not None:
+                done(rpc.error_response(request.id, error))
+            else:
+                done(rpc.response(request.id, result))
+
+        self.call(request.method, request.params, answer)
+
+    def _batch(self, items: list[Any]) -> None:
+        if not items:
+            self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, "empty batch")))
+            return
+        answers: list[dict[str, Any] | None] = [None] * len(items)
+        left = [len(items)]
+
+        def one_done(k: int, answer: dict[str, Any] | None) -> None:
+            answers[k] = answer
+            left[0] -= 1
+            if left[0] == 0:
+                out = [a for a in answers if a is not None]
+                if out:
+                    self._send(out)
+                self.inflight.release()
+
+        for k, item in enumerate(items):
+            self._one(item, lambda answer, k=k: one_done(k, answer))
+
+
+class Server:
+    """Serve a scene: JSON-RPC (and optionally the Twig line protocol) over TCP.
+
+    ``await server.start()`` binds the ports (``port=0`` picks a free one, see
+    :attr:`port`) and starts the simulation loop; ``await server.stop()`` ends both
+    and closes the scene (if ``own_scene``). ``window``: a play window to draw each frame.
+    """
+
+    def __init__(
+        self,
+        scene,
+        host: str = "127.0.0.1",
+        port: int = DEFAULT_PORT,
+        twig_port: int | None = None,
+        token: str | None = None,
+        paused: bool = False,
+        autonomous: bool = True,
+        window=None,
+        own_scene: bool = True,
+        log: Callable[[str], None] | None = None,
+    ) -> None:
+        self.scene = scene
+        self.host = host
+        self.port = port
+        self.twig_port = twig_port
+        self.token = token
+        self.paused = paused
+        self.autonomous = autonomous
+        self.window = window
+        self.own_scene = own_scene
+        self.log = log or (lambda text: print(f"twig serve: {text}", file=sys.stderr, flush=True))
+        self.sessions: set[Session] = set()
+        self.goal_owners: dict[int, Session] = {}
+        self.steps_run = 0
+        self._queue: collections.deque[Command] = collections.deque()
+        self._pending: list[Any] = []  # scene events since the last flush
+        self._grabs: dict[int, tuple[str, str | None, str]] = {}
+        self._listeners: list[asyncio.base_events.Server] = []
+        self._sim: asyncio.Task | None = None
+        self._wakeup: asyncio.Event | None = None
+        self._stopped: asyncio.Event | None = None
+        self._running_commands = False
+        if not autonomous:
+            for name in scene.entity_names:
+                handle = scene.entity(name)
+                if isinstance(handle, CharacterHandle):
+                    handle.autonomous = False
+        for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
+            scene.on(kind, self._pending.append)
+        scene.step(0)  # compile the kernels and install the systems before clients come
+        self._grabs = self._read_grabs()
+
+    # -- lifetime ---------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        """Bind the ports and start the simulation loop."""
+        self._wakeup = asyncio.Event()
+        self._stopped = asyncio.Event()
+        listener = await asyncio.start_server(self._accept(JsonSession), self.host, self.port)
+        self._listeners.append(listener)
+        self.port = listener.sockets[0].getsockname()[1]
+        if self.twig_port is not None:
+            from twig_ecs.server.twigline import TwigSession
+
+            listener = await asyncio.start_server(self._accept(TwigSession), self.host, self.twig_port)
+            self._listeners.append(listener)
+            self.twig_port = listener.sockets[0].getsockname()[1]
+        self._sim = asyncio.create_task(self._run(), name="twig-simulation")
+
+    async def serve_forever(self) -> None:
+        """Run until :meth:`request_stop` (or the window closes), then stop."""
+        assert self._stopped is not None, "start() first"
+        waiters = [asyncio.create_task(self._stopped.wait())]
+        if self._sim is not None:
+            waiters.append(self._sim)
+        await asyncio.wait(waiters, return_when=asyncio.FIRST_COMPLETED)
+        await self.stop()
+
+    def request_stop(self) -> None:
+        if self._stopped is not None:
+            self._stopped.set()
+
+    async def stop(self) -> None:
+        """Close the ports and every session; stop the loop; close the scene."""
+        for listener in self._listeners:
+            listener.close()
+        for session in list(self.sessions):
+            session.abort()
+        if self._sim is not None and not self._sim.done():
+            self._sim.cancel()
+            try:
+                await self._sim
+            except asyncio.CancelledError:
+                pass
+        for listener in self._listeners:
+            await listener.wait_closed()
+        self._listeners.clear()
+        while self._queue:
+            self._queue.popleft().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
+        if self.window is not None and not self.window.closed:
+            self.window.close()  # closes its scene too
+        elif self.own_scene:
+            self.scene.close()
+
+    def _accept(self, kind: type[Session]):
+        async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+            session = kind(self, reader, writer)
+            self.sessions.add(session)
+            try:
+                await session.serve()
+            finally:
+                self.sessions.discard(session)
+                for goal, owner in list(self.goal_owners.items()):
+                    if owner is session:  # its goals go on; nobody is told of their end
+                        del self.goal_owners[goal]
+
+        return serve
+
+    # -- commands ------------------------------------------------------------------------------
+
+    def submit(self, command: Command) -> None:
+        """Queue a command for the simulation loop."""
+        self._queue.append(command)
+        if self._wakeup is not None:
+            self._wakeup.set()
+
+    async def _apply(self, command: Command) -> None:
+        try:
+            result = command.method.fn(self, command.session, **command.params)
+            if inspect.isawaitable(result):
+                result = await result
+        except RPCError as exc:
+            error = exc
+        except KeyError as exc:  # unknown entity names, with suggestions
+            error = RPCError(rpc.INVALID_PARAMS, str(exc.args[0]) if exc.args else "unknown name")
+        except TwigError as exc:
+            error = RPCError(rpc.INVALID_PARAMS, str(exc))
+        except Exception as exc:  # a bug: say so, keep serving
+            self.log(f"{command.method.name} failed:\n{traceback.format_exc()}")
+            error = RPCError(rpc.INTERNAL_ERROR, f"internal error in {command.method.name}: {exc!r}")
+        else:
+            error = None
+        self._flush()  # what the command set off (a cancelled goal), before its answer
+        command.done(result if error is None else None, error)
+
+    # -- the simulation ------------------------------------------------------------------------
+
+    def set_paused(self, paused: bool) -> None:
+        self.paused = paused
+        self._next_tick = asyncio.get_running_loop().time()
+
+    _next_tick = 0.0
+
+    async def _run(self) -> None:
+        loop = asyncio.get_running_loop()
+        wakeup = self._wakeup
+        assert wakeup is not None
+        self._next_tick = loop.time()
+        ticking = False
+        while True:
+            now = loop.time()
+            if now >= self._next_tick and (not self.paused or self.window is not None):
+                if not self.paused:
+                    steps = 0
+                    while now >= self._next_tick and steps < MAX_CATCH_UP:
+                        self._step_frame()
+                        self._next_tick += self.scene.dt
+                        steps += 1
+                    if now >= self._next_tick:  # too far behind: drop the time we cannot catch up
+                        self._next_tick = now + self.scene.dt
+                else:
+                    self._next_tick = now + self.scene.dt
+                if self.window is not None:
+                    self._draw()
+            budget = time.perf_counter() + COMMAND_BUDGET
+            while self._queue:
+                await self._apply(self._queue.popleft())
+                if time.perf_counter() > budget:
+                    break
+            if self._queue:
+                await asyncio.sleep(0)  # let the sockets in before the next batch
+                continue
+            wakeup.clear()
+            ticking = not self.paused or self.window is not None
+            timer = loop.call_at(self._next_tick, wakeup.set) if ticking else None
+            await wakeup.wait()
+            if timer is not None:
+                timer.cancel()
+
+    def _step_frame(self) -> None:
+        try:
+            self.scene.step(1)
+        except Exception:
+            self.log(f"the simulation failed at frame {self.scene.frame}; paused:\n{traceback.format_exc()}")
+            self.paused = True
+            self._pending.clear()
+            for session in list(self.sessions):
+                session.send_event("simulation.error", {"frame": self.scene.frame, "message": "step failed"})
+            raise RPCError(rpc.INTERNAL_ERROR, "the simulation failed; it is paused") from None
+        self.steps_run += 1
+        self._flush()
+
+    def step_frames(self, n: int):
+        """Advance ``n`` frames (the ``step`` method); a coroutine that lets sockets in now and then."""
+
+        async def run() -> None:
+            for k in range(n):
+                self._step_frame()
+                if k % 30 == 29:
+                    await asyncio.sleep(0)
+
+        return run()
+
+    def _draw(self) -> None:
+        window = self.window
+        viewer = window.viewer
+        viewer.paused = self.paused
+        viewer.accumulator = 0.0  # the server steps the scene; the viewer only draws it
+        window.frame(0.0)
+        if window.closed:
+            self.request_stop()
+            return
+        if viewer.paused != self.paused:  # Space in the window
+            self.set_paused(viewer.paused)
+
+    def remove_entity(self, name: str) -> None:
+        """Remove an entity; the goals of or naming it fail first ("'x' was removed")."""
+        scene = self.scene
+        scene.activate()
+        removed = scene._entity_id(name)
+        for entity, _ in list(esper.get_component(Character)):
+            handle = scene.character_handle(entity)
+            for goal in handle.goals:
+                if entity == removed or name in (goal.params.get(k) for k in ("target", "to", "on")):
+                    scene.end_goal(handle, goal, False, f"'{name}' was removed")
+        scene.remove(name)
+        self._flush()
+
+    # -- events -> notifications ------------------------------------------------------------------
+
+    def _read_grabs(self) -> dict[int, tuple[str, str | None, str]]:
+        scene = self.scene
+        grabs = {}
+        for entity, joint in scene.grabs():
+            known = self._grabs.get(entity)
+            if known is None:
+                holder = scene.name_of(joint.holder) or str(joint.holder)
+                character = esper.try_component(joint.holder, Character)
+                hands = character.holding.items() if character else ()
+                hand = next((h for h, g in hands if g == entity), None)
+                known = (holder, hand, scene.name_of(joint.held) or str(joint.held))
+            grabs[entity] = known
+        return grabs
+
+    def _flush(self) -> None:
+        """Turn the scene's events since the last flush (and grab changes) into notifications."""
+        grabs = self._read_grabs()
+        events: list[tuple[str, Any]] = [(e.kind, e) for e in self._pending]
+        self._pending.clear()
+        for entity in self._grabs.keys() - grabs.keys():
+            events.append(("release", self._grabs[entity]))
+        for entity in grabs.keys() - self._grabs.keys():
+            events.append(("grab", grabs[entity]))
+        self._grabs = grabs
+        if not events:
+            return
+        scene = self.scene
+        stamp = {"frame": scene.frame, "time": scene.time}
+        for kind, event in events:
+            owner = None
+            if kind in ("goal.done", "goal.failed"):
+                owner = self.goal_owners.pop(event.goal, None)
+            to = [s for s in self.sessions if kind in s.subscriptions or s is owner]
+            if not to:
+                continue
+            params = {**self._describe(kind, event), **stamp}
+            for session in to:
+                session.send_event(kind, params)
+
+    def _describe(self, kind: str, event: Any) -> dict[str, Any]:
+        name = self.scene.name_of
+
+        def called(entity: int) -> str:
+            return name(entity) or str(entity)
+
+        if isinstance(event, GoalDone | GoalFailed):
+            out = {"character": called(event.character), "goal": event.goal, "behavior": event.behavior}
+            if isinstance(event, GoalFailed):
+                out["reason"] = event.reason
+            return out
+        if isinstance(event, BehaviorChanged):
+            return {"character": called(event.character), "old": event.old, "new": event.new}
+        if isinstance(event, Pain):
+            return {
+                "body": called(event.body),
+                "source": called(event.source_body),
+                "energy": event.energy,
+                "level": event.level,
+            }
+        if isinstance(event, Contact):
+            return {"body": called(event.body), "other": called(event.other_body), "energy": event.energy}
+        holder, hand, held = event  # grab / release
+        return {"character": holder, "hand": hand, "target": held}
