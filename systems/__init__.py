@@ -7,6 +7,7 @@ call each over the table of characters.
 """
 
 from twig_ecs.systems.arms import ArmsSystem
+from twig_ecs.systems.attention import AttentionSystem
 from twig_ecs.systems.collide import CollideSystem
 from twig_ecs.systems.constrain import ConstrainSystem
 from twig_ecs.systems.gait import GaitSystem
@@ -20,6 +21,7 @@ from twig_ecs.systems.sense import SenseSystem
 
 __all__ = [
     "ArmsSystem",
+    "AttentionSystem",
     "CollideSystem",
     "ConstrainSystem",
     "GaitSystem",

@@ -17,7 +17,7 @@ from numba import njit
 
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
 from twig_ecs.system import System
-from twig_ecs.systems.constrain import constraint_args, node_weight, project_limits, project_links, relax_once
+from twig_ecs.systems.constrain import constraint_args, project_limits, project_links, relax_once
 
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.
@@ -213,10 +213,11 @@ def resolve_contacts(
             nx = 0.0
             ny = 1.0
             nz = 0.0
-        wa = node_weight(inv_mass, flags, a)
-        wb = node_weight(inv_mass, flags, b) if b != a else 0.0
-        wc = node_weight(inv_mass, flags, c)
-        wd = node_weight(inv_mass, flags, d) if d != c else 0.0
+        # a foot mid-step is kinematic to its links but not to what it bumps into
+        wa = _felt_weight(inv_mass, flags, a)
+        wb = _felt_weight(inv_mass, flags, b) if b != a else 0.0
+        wc = _felt_weight(inv_mass, flags, c)
+        wd = _felt_weight(inv_mass, flags, d) if d != c else 0.0
         sa = 1.0 - s if b != a else 1.0
         tc = 1.0 - t if d != c else 1.0
         wi = sa * sa * wa + s * s * wb

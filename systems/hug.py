@@ -1,11 +1,11 @@
 """hug: approach with arms out, wrap them round the target, hold, let go (SPEC 4).
 
 Goal-driven (``character.hug(target, duration=2)``). Phases, kept in the goal's memory:
-``approach`` (walk up with the arms in the hug pose), ``wrap`` (reach both hands behind
-the target's back, grabbing its spine node with each as it comes within reach: two
-zero-length links join the hands behind the target's torso), ``hold`` (for ``duration``
-seconds), then release and done. Arms that cannot close round it within ``WRAP_TIME``
-fail the goal.
+``approach`` (walk up with the arms in the hug pose), ``wrap`` (reach the free hands -
+both, unless one holds something - behind the target's back, grabbing its spine node
+with each as it comes within reach: zero-length links join the hands behind the
+target's torso), ``hold`` (for ``duration`` seconds), then release and done. Arms
+that cannot close round it within ``WRAP_TIME`` fail the goal.
 """
 
 from __future__ import annotations
@@ -15,10 +15,13 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.errors import TwigError
+from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
 WRAP_TIME = 3.0  # s to get both hands round
+REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
+CREEP = 0.3  # m/s of the last steps in, arms going round
 LEAN_IN = 0.15  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
 
 
@@ -41,43 +44,75 @@ class Hug(Behavior):
         scale = character._chars().scale[character._crow]
         if phase == "approach":
             character.pose("hug")
-            if steer_to(character, goal, target, CLOSE * scale):
+            if steer_to(character, goal, target, CLOSE * scale + REACH_IN):
                 m["phase"], m["since"] = "wrap", character.scene.time
             return
         if phase == "wrap":
-            character.stop()  # the feet stay put: the arms do the rest
-            back = other.node("spine") + 0.12 * scale * _unit(other.node("spine") - character.node("spine"))
-            for hand in ("left", "right"):
-                if hand in character.holding:
+            # close in slowly while the arms go round
+            if ground_distance(character.position, other.position) > CLOSE * scale:
+                toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
+                character.walk(toward / max(float(np.linalg.norm(toward)), 1e-9) * CREEP)
+            else:
+                character.stop()
+            # the back is held at the torso node nearest the hugger's shoulder height: a
+            # child hugs a grown-up round the waist
+            shoulder_y = character.node("neck")[1] - 0.1 * scale
+            held = m.setdefault(
+                "node", min(("spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
+            )
+            back = other.node(held) + 0.12 * scale * _unit(other.node(held) - character.node("spine"))
+            hands = m.setdefault("hands", [h for h in ("left", "right") if h not in character.holding])
+            if not hands:
+                self.finish(character, goal, False, "both hands are full")
+                return
+            for hand in hands:
+                if character.holding.get(hand) == target:
                     continue
                 character.reach(tuple(back), hand=hand)
                 node = ("l_hand", "r_hand")[hand == "right"]
-                if np.linalg.norm(character.node(node) - other.node("spine")) < GRAB_REACH * scale:
+                if np.linalg.norm(character.node(node) - other.node(held)) < GRAB_REACH * scale:
                     try:
-                        character.grab(target, hand=hand, node="spine")
+                        character.grab(target, hand=hand, node=held)
                         character.pose("hug", hand=hand)
                     except TwigError:
                         pass
-            if len(character.holding) == 2:
+            if all(character.holding.get(h) == target for h in hands):
                 m["phase"], m["since"] = "hold", character.scene.time
             elif character.scene.time - m["since"] > WRAP_TIME:
-                self.finish(character, goal, False, "could not get both arms round")
+                self.finish(character, goal, False, "could not get its arms round")
             return
         # hold: the arms go slack (the grab joints keep the hands on its back) and the
         # hugger leans in until the two torsos meet; pulling with the arms instead
         # could wrench the target's torso inside out
-        character.stop()
-        character.pose("hang")
+        if ground_distance(character.position, other.position) > 0.8 * CLOSE * scale:
+            toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
+            character.walk(toward / max(float(np.linalg.norm(toward)), 1e-9) * 0.5 * CREEP)
+        else:
+            character.stop()
+        for hand in m["hands"]:
+            character.pose("hang", hand=hand)
         toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
         character._chars().lean[character._crow] = toward * LEAN_IN * scale
         if character.scene.time - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
 
+    def setup(self) -> None:
+        """Whom each character is hugging (to let go of only that one, even after the goal ended)."""
+        self.hugging: dict[int, str] = {}
+
+    def start(self, character, goal: Goal | None) -> None:
+        """Remember the target."""
+        if goal is not None:
+            self.hugging[character.entity] = goal.params["target"]
+
     def stop(self, character, goal: Goal | None) -> None:
-        """Let go and stand up straight."""
+        """Let go (of the one it hugged only: a carried toy stays) and stand up straight."""
         character.stoop(None)
-        character.release()
+        target = self.hugging.pop(character.entity, None)
+        for hand, held in list(character.holding.items()):
+            if held == target:
+                character.release(hand)
         character.stop()
         character.look_at(None)
 

@@ -136,7 +136,6 @@ def test_grapple_hurts_the_target_and_its_pain_withdrawal_wins_and_backs_it_off(
     assert peak > threshold
     assert ("b", "withdraw") in changes
     assert backed > 0.3
-    assert a.pain == 0.0, "the one who strikes does not feel its own blows"
 
 
 def test_a_dragged_ragdoll_follows_within_arms_reach(scenes):

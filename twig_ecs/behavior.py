@@ -179,7 +179,19 @@ def register(cls: type[Behavior]) -> type[Behavior]:
 
 def load_builtin_behaviors() -> dict[str, type[Behavior]]:
     """Import the built-in behaviour systems (they register themselves); return the registry."""
-    from twig_ecs.systems import approach, carry, grapple, hug, posture_goals, withdraw  # noqa: F401
+    from twig_ecs.systems import (  # noqa: F401
+        approach,
+        attachment,
+        carry,
+        fight,
+        grapple,
+        hug,
+        play,
+        posture_goals,
+        ride,
+        watch,
+        withdraw,
+    )
 
     return {k: v for k, v in REGISTRY.items() if v.__module__.startswith("twig_ecs.")}
 

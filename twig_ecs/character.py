@@ -395,7 +395,8 @@ class CharacterHandle(BodyHandle):
         """Hold ``target`` in a hand with a ball joint (the hand must be near it: reach first).
 
         The nearest node of the target is taken unless ``node`` names one. A hand that
-        holds something keeps it in front of the body (carry) until released.
+        was reaching for it then holds it up in front of the body (carry); a hanging
+        arm just keeps hanging, holding it.
         """
         (h,) = self._hands(hand) if hand != "both" else (None,)
         if h is None:
@@ -422,7 +423,7 @@ class CharacterHandle(BodyHandle):
         grab = self.scene.grab(self.name, ("l_hand", "r_hand")[h], target, node)
         self.character.holding[hand_name] = grab
         ch = self._chars()
-        if ch.arm_mode[self._crow, h] in (HANG, REACH):
+        if ch.arm_mode[self._crow, h] == REACH:  # fetched it: hold it up in front
             ch.arm_mode[self._crow, h] = CARRY
 
     def release(self, hand: str | None = None) -> None:

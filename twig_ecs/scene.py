@@ -18,7 +18,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
-from twig_ecs.components import Body, Character, GrabJoint, Link, Name, Node
+from twig_ecs.components import Body, Character, GrabJoint, Link, Memory, Name, Node
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.events import Event
 from twig_ecs.handles import BodyHandle
@@ -74,6 +74,7 @@ class Scene:
         for system in (s.IntegrateSystem(), s.ConstrainSystem(), s.CollideSystem(), s.SenseSystem(),
                        s.GaitSystem()):  # fmt: skip
             self.add_system(system)
+        self.add_system(s.AttentionSystem(), after="sense", before="select_behavior")
         # behaviours propose activations before select_behavior picks and runs the winners
         for behavior in load_builtin_behaviors().values():
             self.add_system(behavior(), after="sense", before="select_behavior")
@@ -124,6 +125,9 @@ class Scene:
                 scene._spawn_spec(spec)
                 for behavior in spec.behaviors:
                     esper.add_component(scene._names[spec.name], behavior.component)
+                if spec.perception is not None:
+                    esper.add_component(scene._names[spec.name], spec.perception)
+                    esper.add_component(scene._names[spec.name], Memory())
             for i, spec in enumerate(plan.entities):  # starting commands may name later entities
                 if spec.character is not None and spec.character.start:
                     try:

@@ -14,7 +14,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, installed_behaviors, load_builtin_behaviors, load_class
 from twig_ecs.character import CharacterSpec
-from twig_ecs.components import PainSensor
+from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import TwigError
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.store import ROLES
@@ -47,7 +47,7 @@ SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "systems",
 SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
-               "character", "behaviors")  # fmt: skip
+               "character", "perception", "behaviors")  # fmt: skip
 CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
                   "patrol")  # fmt: skip
 
@@ -76,6 +76,7 @@ class EntitySpec:
     damping: Damping | None = None
     character: CharacterSpec | None = None
     behaviors: list[BehaviorSpec] = field(default_factory=list)
+    perception: Perception | None = None
 
 
 @dataclass
@@ -269,6 +270,7 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
             )
         seen[spec.name] = i
         spec.behaviors = read_behaviors(raw, here, known, systems, spec)
+        spec.perception = read_perception(raw, here, spec)
         entities.append(spec)
     for i, spec in enumerate(entities):  # names in character commands must exist
         if spec.character is None:
@@ -312,6 +314,26 @@ def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
             after, before = "sense", "select_behavior"  # behaviours propose before selection
         out.append(SystemSpec(cls, read(item, "name", here, text, None), before, after, (item, here)))
     return out
+
+
+def read_perception(raw: YDict, path: str, spec: EntitySpec) -> Perception | None:
+    """A character's ``perception:`` (view cone, memory, valence and priority by name)."""
+    if "perception" not in raw:
+        return None
+    here = join(path, "perception")
+    if spec.character is None:
+        fail(raw, "perception", here, "only characters perceive (add character: true)")
+    doc = read(raw, "perception", path, mapping)
+    check_keys(doc, here, ("view_angle", "view_distance", "memory_half_life", "valence", "priority"))
+    values = {}
+    for key in ("view_angle", "view_distance", "memory_half_life"):
+        if key in doc:
+            values[key] = read(doc, key, here, positive)
+    for key in ("valence", "priority"):
+        if key in doc:
+            table = read(doc, key, here, mapping)
+            values[key] = {str(k): read(table, k, join(here, key), number) for k in table}
+    return Perception(**values)
 
 
 def read_behaviors(raw: YDict, path: str, known: dict, systems: list[SystemSpec],

@@ -1,0 +1,98 @@
+"""attachment: the safe-home-base cycle (SPEC 5) - anxiety, looking back, running to hug.
+
+For each character with an :class:`~twig_ecs.components.Attachment`: anxiety grows
+with the distance beyond ``safe_distance`` from the caregiver and with time away, and
+fades near the caregiver. Past ``look_back_at`` the child now and then stops to look
+back at the caregiver (a glance of ``GLANCE`` seconds); past ``return_at`` it runs to
+the caregiver and hugs it (a hug goal, with the hands it has free); the hug soothes:
+anxiety drops to zero and play resumes.
+"""
+
+from __future__ import annotations
+
+import esper
+
+from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.components import Attachment, Character
+from twig_ecs.steering import ground_distance
+
+GLANCE = 1.0  # s a look back lasts
+GLANCE_EVERY = 5.0  # s at least between look-backs
+LOOK_BACK = 0.7  # activation of a glance: above play
+RUN_HOME = 1.0  # activation of running back: above play and fights, below pain
+
+
+@register
+class AttachmentBehavior(Behavior):
+    """Keeps a child tied to its caregiver: glances back, runs back for a hug."""
+
+    name = "attachment"
+    component = Attachment
+
+    def setup(self) -> None:
+        """Per child: when the current glance ends, when the last one began."""
+        self.glance_until: dict[int, float] = {}
+        self.last_glance: dict[int, float] = {}
+
+    def process(self, dt: float) -> None:
+        """Update every attached child's anxiety, then propose."""
+        scene = self.scene
+        for entity, (_, attachment) in esper.get_components(Character, Attachment):
+            me = scene.character_handle(entity)
+            try:
+                home = scene.entity(attachment.caregiver).position
+            except KeyError:
+                continue
+            distance = ground_distance(me.position, home)
+            if distance > attachment.safe_distance:
+                attachment.anxiety += dt * (attachment.per_metre * (distance - attachment.safe_distance)
+                                            + attachment.per_second)  # fmt: skip
+            else:
+                attachment.anxiety -= dt * attachment.fade
+            attachment.anxiety = min(1.0, max(0.0, attachment.anxiety))
+        super().process(dt)
+
+    def activation(self, character, mind: Mind, goal) -> float:
+        """Run home when anxious enough, glance back when somewhat anxious."""
+        attachment = self.settings(character)
+        if any(g.behavior == "hug" for g in mind.goals):
+            return 0.0  # already on its way home
+        if attachment.anxiety >= attachment.return_at:
+            return RUN_HOME
+        now = self.scene.time
+        if self.glance_until.get(character.entity, -1.0) > now:
+            return LOOK_BACK
+        if (
+            attachment.anxiety >= attachment.look_back_at
+            and now - self.last_glance.get(character.entity, -1e9) > GLANCE_EVERY
+        ):
+            return LOOK_BACK  # fmt: skip
+        return 0.0
+
+    def start(self, character, goal: Goal | None) -> None:
+        """A glance begins (unless this is the run home)."""
+        attachment = self.settings(character)
+        if attachment.anxiety < attachment.return_at:
+            now = self.scene.time
+            self.glance_until[character.entity] = now + GLANCE
+            self.last_glance[character.entity] = now
+            attachment.look_backs += 1
+
+    def act(self, character, mind: Mind, goal, dt: float) -> None:
+        """Glance: stand and look at the caregiver. Anxious: queue a hug and go."""
+        attachment = self.settings(character)
+        if attachment.anxiety >= attachment.return_at:
+
+            def soothed(done: Goal, a=attachment) -> None:
+                if done.status == "done":
+                    a.anxiety, a.hugs = 0.0, a.hugs + 1
+
+            character.hug(attachment.caregiver, duration=1.5, on_end=soothed)
+            self.glance_until.pop(character.entity, None)
+            return
+        character.stop()
+        character.look_at(attachment.caregiver, node="head")
+
+    def stop(self, character, goal) -> None:
+        """The glance is over."""
+        self.glance_until.pop(character.entity, None)

@@ -1,0 +1,89 @@
+"""attention: perceive, remember, appraise, focus - and look at the focus (SPEC 4).
+
+For each character with a :class:`~twig_ecs.components.Perception`, every step:
+things in its view cone (around its face direction, within view distance; no
+occlusion) are seen (memory strength 1, position noted); everything else fades with the
+memory half-life. Each remembered thing is appraised: salience = strength x (0.2 +
+|valence| + monitoring priority + how fast it moves); an attached child's caregiver
+gains priority with the child's anxiety. The most salient thing is the focus of
+attention (the current focus gets a small bonus, so the eyes do not dart), and the
+character looks at it - until a winning behaviour points the eyes elsewhere.
+"""
+
+from __future__ import annotations
+
+import math
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Attachment, Character, Memory, Perception
+from twig_ecs.system import System
+
+FOCUS_BONUS = 0.15  # salience bonus of the current focus
+
+
+class AttentionSystem(System):
+    """Updates each perceiving character's memory and focus of attention."""
+
+    name = "attention"
+
+    def process(self, dt: float) -> None:
+        """Perceive, fade, appraise and pick a focus for every perceiving character."""
+        scene = self.scene
+        state = scene.state
+        nodes, bodies = state.nodes, state.bodies
+        # where every named body is, and how fast it goes (centre of its nodes)
+        centres: dict[str, np.ndarray] = {}
+        speeds: dict[str, float] = {}
+        body_names = {int(bodies.entity[b]): b for b in range(bodies.count)}
+        for name in scene.entity_names:
+            entity = scene._names[name]
+            b = body_names.get(entity)
+            if b is None:
+                continue
+            rows = nodes.body[: nodes.count] == b
+            centres[name] = nodes.pos[: nodes.count][rows].mean(axis=0)
+            speeds[name] = float(np.linalg.norm((nodes.pos[: nodes.count][rows] - nodes.prev[: nodes.count][rows])
+                                                .mean(axis=0))) / dt  # fmt: skip
+        fade = 0.5 ** (dt / 1.0)
+        for entity, (_, perception, memory) in esper.get_components(Character, Perception, Memory):
+            me = scene.character_handle(entity)
+            head = me.node("head")
+            face = me.head_direction
+            cos_half = math.cos(math.radians(perception.view_angle / 2))
+            decay = fade ** (1.0 / perception.memory_half_life)
+            anxiety = 0.0
+            attachment = esper.try_component(entity, Attachment)
+            if attachment is not None:
+                anxiety = attachment.anxiety
+            for name, where in centres.items():
+                if name == me.name:
+                    continue
+                off = where - head
+                dist = float(np.linalg.norm(off))
+                seen = dist < perception.view_distance and (dist < 0.5 or off @ face / dist >= cos_half)
+                if seen:
+                    memory.strength[name] = 1.0
+                    memory.where[name] = tuple(where)
+                elif name in memory.strength:
+                    memory.strength[name] *= decay
+            salience = {}
+            for name, strength in memory.strength.items():
+                if strength < 0.05 or name not in centres:
+                    continue
+                priority = perception.priority.get(name, 0.0)
+                if attachment is not None and name == attachment.caregiver:
+                    priority += anxiety
+                motion = min(1.0, speeds.get(name, 0.0) / 2.0)
+                salience[name] = strength * (
+                    0.2 + abs(perception.valence.get(name, 0.0)) + priority + 0.5 * motion
+                )
+            if memory.focus in salience:
+                salience[memory.focus] += FOCUS_BONUS
+            memory.salience = salience
+            memory.focus = max(salience, key=salience.__getitem__) if salience else None
+            if memory.focus is not None:
+                me.look_at(
+                    memory.focus, node="head" if "head" in scene.entity(memory.focus).node_names else None
+                )
