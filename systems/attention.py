@@ -43,9 +43,9 @@ class AttentionSystem(System):
             if b is None:
                 continue
             rows = nodes.body[: nodes.count] == b
-            centres[name] = nodes.pos[: nodes.count][rows].mean(axis=0)
-            speeds[name] = float(np.linalg.norm((nodes.pos[: nodes.count][rows] - nodes.prev[: nodes.count][rows])
-                                                .mean(axis=0))) / dt  # fmt: skip
+            pos, prev = nodes.pos[: nodes.count][rows], nodes.prev[: nodes.count][rows]
+            centres[name] = pos.mean(axis=0)
+            speeds[name] = float(np.linalg.norm((pos - prev).mean(axis=0))) / dt
         fade = 0.5 ** (dt / 1.0)
         for entity, (_, perception, memory) in esper.get_components(Character, Perception, Memory):
             me = scene.character_handle(entity)

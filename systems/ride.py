@@ -70,9 +70,8 @@ class Ride(Behavior):
             elif now - self.since[character.entity] > GIVE_UP:
                 self._done(character)
             else:
-                params = SteeringParams(speed=1.6)
-                character.walk(approach_velocity(character.position, spot, obstacles_near(character, set(), 1.2),
-                                                 params))  # fmt: skip
+                obstacles = obstacles_near(character, set(), 1.2)
+                character.walk(approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6)))
             return
         tangent = np.cross([0.0, 1.0, 0.0], out)  # round the axle
         character.reach(tuple(handle), hand="both")
