@@ -71,7 +71,8 @@ class Ride(Behavior):
                 self._done(character)
             else:
                 obstacles = obstacles_near(character, set(), 1.2)
-                character.walk(approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6)))
+                walk = approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6))
+                character.walk(walk)
             return
         tangent = np.cross([0.0, 1.0, 0.0], out)  # round the axle
         character.reach(tuple(handle), hand="both")
