@@ -435,16 +435,15 @@ class Server:
         self.steps_run += 1
         self._flush()
 
-    def step_frames(self, n: int):
-        """Advance ``n`` frames (the ``step`` method); a coroutine that lets sockets in now and then."""
+    async def step_frames(self, n: int) -> None:
+        """Advance ``n`` frames (the ``step`` method), letting the sockets in now and then.
 
-        async def run() -> None:
-            for k in range(n):
-                self._step_frame()
-                if k % 30 == 29:
-                    await asyncio.sleep(0)
-
-        return run()
+        Queued commands wait until all ``n`` are done: they land after the last one.
+        """
+        for k in range(n):
+            self._step_frame()
+            if k % 30 == 29:
+                await asyncio.sleep(0)
 
     def _draw(self) -> None:
         window = self.window

@@ -86,10 +86,10 @@ def _show(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _vector(p: Param, value: Any, where: str) -> tuple[float, ...]:
+def _vector(p: Param, value: Any) -> tuple[float, ...]:
     if not isinstance(value, list | tuple) or len(value) not in (2, 3):
-        raise _bad(f"{where} must be a list of 3 numbers [x, y, z] (or 2, [x, z]), got {_show(value)}")
-    nums = [_number(Param("", "number"), v, f"{where}[{i}]") for i, v in enumerate(value)]
+        raise _bad(f"'{p.name}' must be a list of 3 numbers [x, y, z] (or 2, [x, z]), got {_show(value)}")
+    nums = [_number(Param("", "number"), v, f"'{p.name}[{i}]'") for i, v in enumerate(value)]
     if len(nums) == 2:
         nums = [nums[0], 0.0, nums[1]]
     return tuple(nums)
@@ -124,12 +124,12 @@ def check_value(p: Param, value: Any) -> Any:
             raise _bad(f"{where} must be true or false, got {_show(value)}")
         return value
     if kind == "vector":
-        return _vector(p, value, where)
+        return _vector(p, value)
     if kind == "target":
         if isinstance(value, str):
             return check_value(Param(p.name, "name"), value)
         if isinstance(value, list | tuple):
-            return _vector(p, value, where)
+            return _vector(p, value)
         raise _bad(f"{where} must be an entity name or a point [x, y, z], got {_show(value)}")
     if kind == "choice":
         if value not in p.choices:
@@ -150,9 +150,8 @@ def check_value(p: Param, value: Any) -> Any:
     if kind == "color":
         if not isinstance(value, list) or len(value) != 3:
             raise _bad(f"{where} must be 3 numbers [r, g, b] between 0 and 1, got {_show(value)}")
-        return [
-            _number(Param("", "number", low=0.0, high=1.0), v, f"{where}[{i}]") for i, v in enumerate(value)
-        ]
+        unit = Param("", "number", low=0.0, high=1.0)
+        return [_number(unit, v, f"'{p.name}[{i}]'") for i, v in enumerate(value)]
     raise AssertionError(f"unknown parameter kind {kind}")
 
 
@@ -355,10 +354,10 @@ def resume(server: Server, session: Session) -> dict[str, Any]:
     return {"frame": server.scene.frame, "time": server.scene.time}
 
 
-def step(server: Server, session: Session, n: int) -> dict[str, Any]:
+async def step(server: Server, session: Session, n: int) -> dict[str, Any]:
     if not server.paused:
         raise RPCError(NOT_NOW, "step runs only while paused: call pause first")
-    server.step_frames(n)
+    await server.step_frames(n)
     scene = server.scene
     return {"frame": scene.frame, "time": scene.time, "state_hash": scene.state_hash()}
 
