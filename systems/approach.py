@@ -33,6 +33,7 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
     d2 = (pos[:, 0] - here[0]) ** 2 + (pos[:, 2] - here[2]) ** 2
     near = np.flatnonzero(d2 < cutoff**2)
+    exclude = set(exclude) | set(character.holding.values())  # what it carries is no obstacle
     skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
     best: dict[int, int] = {}
     for i in near:

@@ -2,8 +2,8 @@
 
 For each character with a :class:`~twig_ecs.components.Rider`: on a whim (``whim``
 per second) it walks to the merry-go-round's rim, puts its hands on the nearest
-handle and runs round pushing it (a push of ``push`` newtons along the rim) for
-``PUSH_TIME`` seconds.
+handle and shoves it round (a push of ``push`` newtons along the rim) for
+``PUSH_TIME`` seconds, standing at the rim.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ class Ride(Behavior):
         tangent = np.cross([0.0, 1.0, 0.0], out)  # round the axle
         character.reach(tuple(handle), hand="both")
         ride.apply_force(names[nearest], tuple(rider.push * tangent))
-        character.walk(tuple(1.2 * tangent + 0.5 * (spot - character.position) * np.array([1.0, 0.0, 1.0])))
+        character.stop()  # stands at the rim and shoves; the next handle comes round
         if now - start > PUSH_TIME:
             self._done(character)
 

@@ -65,7 +65,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from twig_ecs.report import run_with_report
 
     report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
-                             progress=args.report != "json" and sys.stderr.isatty())  # fmt: skip
+                             progress=args.report != "json" and sys.stderr.isatty(), trace=args.trace,
+                             plot=args.plot)  # fmt: skip  # fmt: skip
     if args.report == "json":
         print(json.dumps(report, indent=2))
     else:
@@ -98,6 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_args(p)
     p.add_argument("--seconds", type=_positive_seconds, default=10.0, help="simulated seconds (default 10)")
     p.add_argument("--report", choices=["text", "json"], default="text", help="report format")
+    p.add_argument("--trace", metavar="FILE.csv", help="write a per-step trace of every character")
+    p.add_argument("--plot", metavar="FILE.png", help="plot distance to caregiver and anxiety over time")
     p.set_defaults(func=cmd_run)
 
     for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli"):

@@ -12,22 +12,35 @@ import numpy as np
 from twig_ecs.scene import Scene
 
 
-def run_with_report(source: str | Path, seconds: float, seed: int = 0,
-                    content: tuple | list = (), progress: bool = False) -> dict:  # fmt: skip
+def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: tuple | list = (),
+                    progress: bool = False, trace: str | Path | None = None,
+                    plot: str | Path | None = None) -> dict:  # fmt: skip
     """Load a scene, run it for ``seconds`` and measure it at every step.
 
     Returns a JSON-ready dict: scene, seconds, frames, step_ms {median, p95},
     max_link_error (largest |len-rest|/rest), max_penetration_m (deepest capsule
-    overlap left after a step), min_node_y, nan, state_hash and event counts.
+    overlap left after a step), min_node_y, nan, state_hash and event counts; with
+    characters, also per-character metrics (:mod:`twig_ecs.metrics`). ``trace`` writes a
+    per-step CSV, ``plot`` a PNG of distance to caregiver and anxiety over time.
     """
+    from twig_ecs.metrics import StoryRecorder
+
     scene = Scene.load(source, seed=seed, content=content)
     try:
-        return _measure(scene, seconds, progress)
+        recorder = StoryRecorder(scene, trace=bool(trace or plot))
+        report = _measure(scene, seconds, progress, recorder)
+        if scene.state.characters.count:
+            report.update(recorder.report())
+        if trace:
+            recorder.write_trace(trace)
+        if plot:
+            recorder.plot(plot)
+        return report
     finally:
         scene.close()
 
 
-def _measure(scene: Scene, seconds: float, progress: bool) -> dict:
+def _measure(scene: Scene, seconds: float, progress: bool, recorder=None) -> dict:
     frames = int(round(seconds / scene.dt))
     step_ms = np.empty(frames)
     max_link_error = 0.0
@@ -40,6 +53,8 @@ def _measure(scene: Scene, seconds: float, progress: bool) -> dict:
         t0 = time.perf_counter()
         scene.step()
         step_ms[f] = (time.perf_counter() - t0) * 1000.0
+        if recorder is not None:
+            recorder.step()
         pos = nodes.pos[: nodes.count]
         if not np.isfinite(pos).all():
             nan = True

@@ -130,11 +130,31 @@ def _activations(handle) -> str:
     return "  ".join(f"{name[:8]} {activation_bar(value)}" for name, value in top) or "-"
 
 
+def _focus(handle) -> str:
+    import esper
+
+    from twig_ecs.components import Memory
+
+    memory = esper.try_component(handle.entity, Memory)
+    return memory.focus if memory is not None and memory.focus else "-"
+
+
+def _anxiety(handle) -> str:
+    import esper
+
+    from twig_ecs.components import Attachment
+
+    attachment = esper.try_component(handle.entity, Attachment)
+    return f"{attachment.anxiety:4.2f}" if attachment is not None else "-"
+
+
 #: Inspector columns after the name, in order. Add more with :func:`add_inspector_field`.
 INSPECTOR_FIELDS: dict[str, InspectorField] = {
     "behaviour": _behaviour,
     "goal": _character_field(_goal),
     "activations": _character_field(_activations),
+    "focus": _character_field(_focus),
+    "anxiety": _character_field(_anxiety),
     "pain": _pain,
     "posture": _character_field(lambda h: h.posture),
     "m/s": _character_field(_speed),

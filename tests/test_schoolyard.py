@@ -1,0 +1,62 @@
+"""The autonomous schoolyard (SPEC 5): the safe-home-base cycle and play, from a fixed seed."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from twig_ecs.report import run_with_report
+
+
+@pytest.fixture(scope="module")
+def story(tmp_path_factory):
+    """Ninety seconds of the schoolyard, with its report and per-step trace."""
+    folder = tmp_path_factory.mktemp("yard")
+    trace = folder / "trace.csv"
+    plot = folder / "plot.png"
+    report = run_with_report("schoolyard", 90.0, seed=0, trace=trace, plot=plot)
+    with open(trace) as f:
+        rows = [r for r in csv.DictReader(f) if r["character"] == "small_child"]
+    return report, rows, plot
+
+
+def test_the_small_child_leaves_looks_back_returns_and_hugs(story):
+    report, _, _ = story
+    small = report["characters"]["small_child"]
+    assert small["max_distance_from_caregiver"] > 5.0, "it wanders off beyond several metres"
+    assert small["look_backs"] >= 2
+    assert small["hugs"] >= 1
+    assert small["time_per_behaviour"]["play"] > 20.0
+    assert report["nan"] is False
+
+
+def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
+    _, rows, _ = story
+    anxiety = np.array([float(r["anxiety"]) for r in rows])
+    distance = np.array([float(r["caregiver_distance"]) for r in rows])
+    behaviour = [r["behaviour"] for r in rows]
+    far = distance > 4.0
+    assert far.any()
+    # while far away anxiety climbs; near the parent it does not
+    rising = np.diff(anxiety)[far[:-1]]
+    assert np.mean(rising > 0) > 0.9
+    # the step a hug ends, anxiety is (close to) gone
+    ends = [k for k in range(1, len(rows)) if behaviour[k - 1] == "hug" and behaviour[k] != "hug"]
+    assert ends
+    before_hug = anxiety[
+        [k for k in range(1, len(rows)) if behaviour[k] == "hug" and behaviour[k - 1] != "hug"]
+    ]
+    assert before_hug.max() > 0.7
+    assert all(anxiety[k] < 0.1 for k in ends)
+
+
+def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(story, tmp_path):
+    report, _, plot = story
+    kids = report["characters"]
+    assert kids["small_child"]["ball_touches"] + kids["big_child"]["ball_touches"] >= 10
+    assert report["merry_go_round_peak_rad_s"] > 0.5, "a child spun it"
+    assert kids["small_child"]["held_fraction"]["ragdoll"] > 0.9
+    assert kids["parent"]["time_per_behaviour"]["watch"] > 80.0
+    assert plot.stat().st_size > 10_000
