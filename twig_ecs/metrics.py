@@ -42,8 +42,8 @@ class StoryRecorder:
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
-        return bool((self.scene.state.nodes.axle_a[body.node_start : body.node_start + len(body.node_names)] >= 0)
-                    .any())  # fmt: skip
+        rows = slice(body.node_start, body.node_start + len(body.node_names))
+        return bool((self.scene.state.nodes.axle_a[rows] >= 0).any())
 
     def _goal_done(self, event) -> None:
         if event.behavior == "hug":
