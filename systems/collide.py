@@ -17,7 +17,7 @@ from numba import njit
 
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
 from twig_ecs.system import System
-from twig_ecs.systems.constrain import constraint_args, project_limits, project_links, relax_once
+from twig_ecs.systems.constrain import constraint_args, nudge, project_limits, project_links, relax_once
 
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.
@@ -279,18 +279,10 @@ def resolve_contacts(
         fb = lam * s * wb
         fc = lam * tc * wc
         fd = lam * t * wd
-        pos[a, 0] += fa * nx
-        pos[a, 1] += fa * ny
-        pos[a, 2] += fa * nz
-        pos[b, 0] += fb * nx
-        pos[b, 1] += fb * ny
-        pos[b, 2] += fb * nz
-        pos[c, 0] -= fc * nx
-        pos[c, 1] -= fc * ny
-        pos[c, 2] -= fc * nz
-        pos[d, 0] -= fd * nx
-        pos[d, 1] -= fd * ny
-        pos[d, 2] -= fd * nz
+        nudge(pos, a, fa, nx, ny, nz)
+        nudge(pos, b, fb, nx, ny, nz)
+        nudge(pos, c, -fc, nx, ny, nz)
+        nudge(pos, d, -fd, nx, ny, nz)
         # a contact pushing a capsule upwards supports it: high (ground) damping
         if ny > 0.5:
             flags[a] |= NODE_IN_CONTACT

@@ -39,6 +39,36 @@ def node_weight(inv_mass, flags, i):
     return inv_mass[i]
 
 
+@njit(cache=True, inline="always")
+def line_offset(pos, a, b, p):
+    """Where node p lies relative to the line from node a to node b.
+
+    Returns (length of a-b, unit axis x, y, z, distance of p along the axis from a,
+    and p's perpendicular offset from the line x, y, z); the axis is zero when a = b.
+    """
+    ax = pos[b, 0] - pos[a, 0]
+    ay = pos[b, 1] - pos[a, 1]
+    az = pos[b, 2] - pos[a, 2]
+    an = math.sqrt(ax * ax + ay * ay + az * az)
+    if an > 0.0:
+        ax /= an
+        ay /= an
+        az /= an
+    vx = pos[p, 0] - pos[a, 0]
+    vy = pos[p, 1] - pos[a, 1]
+    vz = pos[p, 2] - pos[a, 2]
+    along = vx * ax + vy * ay + vz * az
+    return an, ax, ay, az, along, vx - along * ax, vy - along * ay, vz - along * az
+
+
+@njit(cache=True, inline="always")
+def nudge(pos, i, f, dx, dy, dz):
+    """Move node i by f times (dx, dy, dz)."""
+    pos[i, 0] += f * dx
+    pos[i, 1] += f * dy
+    pos[i, 2] += f * dz
+
+
 @njit(cache=True)
 def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
     """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o.
@@ -109,22 +139,9 @@ def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref,
         rx = ref[k, 0] * fx / fn + ref[k, 1] * ux / un
         ry = ref[k, 0] * fy / fn + ref[k, 1] * uy / un
         rz = ref[k, 0] * fz / fn + ref[k, 1] * uz / un
-        ax = pos[t, 0] - pos[r, 0]
-        ay = pos[t, 1] - pos[r, 1]
-        az = pos[t, 2] - pos[r, 2]
-        an = math.sqrt(ax * ax + ay * ay + az * az)
+        an, ax, ay, az, va, px, py, pz = line_offset(pos, r, t, m)
         if an < 1e-9:
             continue
-        ax /= an
-        ay /= an
-        az /= an
-        vx = pos[m, 0] - pos[r, 0]
-        vy = pos[m, 1] - pos[r, 1]
-        vz = pos[m, 2] - pos[r, 2]
-        va = vx * ax + vy * ay + vz * az
-        px = vx - va * ax
-        py = vy - va * ay
-        pz = vz - va * az
         ra = rx * ax + ry * ay + rz * az
         rx -= ra * ax
         ry -= ra * ay
@@ -203,15 +220,9 @@ def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref,
         fm = wm / w
         fr = (1.0 - alpha) * wr / w
         ft = alpha * wt / w
-        pos[m, 0] += fm * dx
-        pos[m, 1] += fm * dy
-        pos[m, 2] += fm * dz
-        pos[r, 0] -= fr * dx
-        pos[r, 1] -= fr * dy
-        pos[r, 2] -= fr * dz
-        pos[t, 0] -= ft * dx
-        pos[t, 1] -= ft * dy
-        pos[t, 2] -= ft * dz
+        nudge(pos, m, fm, dx, dy, dz)
+        nudge(pos, r, -fr, dx, dy, dz)
+        nudge(pos, t, -ft, dx, dy, dz)
 
 
 @njit(cache=True)
@@ -221,21 +232,7 @@ def project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, count):
         a = axle_a[i]
         if a < 0 or flags[i] & NODE_LOCKED:
             continue
-        b = axle_b[i]
-        ax = pos[b, 0] - pos[a, 0]
-        ay = pos[b, 1] - pos[a, 1]
-        az = pos[b, 2] - pos[a, 2]
-        an = math.sqrt(ax * ax + ay * ay + az * az)
-        ax /= an
-        ay /= an
-        az /= an
-        vx = pos[i, 0] - pos[a, 0]
-        vy = pos[i, 1] - pos[a, 1]
-        vz = pos[i, 2] - pos[a, 2]
-        h = vx * ax + vy * ay + vz * az
-        px = vx - h * ax
-        py = vy - h * ay
-        pz = vz - h * az
+        _, ax, ay, az, _, px, py, pz = line_offset(pos, a, axle_b[i], i)
         plen = math.sqrt(px * px + py * py + pz * pz)
         if plen < 1e-9:
             continue
