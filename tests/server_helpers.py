@@ -32,6 +32,7 @@ def running_server(
     token: str | None = None,
     paused: bool = False,
     autonomous: bool = True,
+    window: bool = False,
     timeout: float = 60.0,
 ) -> Iterator[Running]:
     """Serve ``scene`` on 127.0.0.1 (ephemeral ports) in a thread until the block ends."""
@@ -40,7 +41,14 @@ def running_server(
 
     def main() -> None:
         async def serve() -> None:
-            loaded = Scene.load(scene, seed=seed)
+            shown = None
+            if window:  # pyglet's headless EGL window: no display needed
+                from twig_ecs.graphics.app import open_window
+
+                shown = open_window(scene, seed=seed, size=(160, 90), headless=True)
+                loaded = shown.viewer.scene
+            else:
+                loaded = Scene.load(scene, seed=seed)
             try:
                 server = Server(
                     loaded,
@@ -49,10 +57,11 @@ def running_server(
                     token=token,
                     paused=paused,
                     autonomous=autonomous,
+                    window=shown,
                     log=lambda text: box.setdefault("log", []).append(text),
                 )
             except BaseException:
-                loaded.close()
+                (shown or loaded).close()
                 raise
             await server.start()
             box["running"] = Running(server, server.port, server.twig_port, asyncio.get_running_loop())

@@ -281,6 +281,19 @@ def test_step_needs_a_paused_world_and_pause_resume_switch_the_clock():
         assert twig.status()["frame"] >= at + 10
 
 
+def test_with_a_window_the_server_draws_every_frame_and_keeps_the_clock():
+    with running_server(window=True) as srv, Client(port=srv.port) as twig:
+        viewer = srv.server.window.viewer  # read-only peeks from this thread
+        frame0, drawn0 = twig.status()["frame"], viewer.frames
+        time.sleep(0.5)
+        frames, drawn = twig.status()["frame"] - frame0, viewer.frames - drawn0
+        assert frames >= 20 and drawn >= 10
+        at = twig.pause()["frame"]
+        assert twig.step(n=3)["frame"] == at + 3
+        time.sleep(0.1)
+        assert viewer.paused and viewer.frames > drawn0 + drawn
+
+
 def test_the_twig_line_protocol_works_from_a_raw_socket():
     with running_server(twig=True, paused=True, autonomous=False) as srv, RawLines(srv.twig_port) as nc:
         assert nc.line() == b"TwigServer"

@@ -274,8 +274,14 @@ class Server:
         self._sim: asyncio.Task | None = None
         self._wakeup: asyncio.Event | None = None
         self._stopped: asyncio.Event | None = None
-        self._running_commands = False
-        if not autonomous:
+        self._adopt(scene)
+
+    def _adopt(self, scene) -> None:
+        """Serve ``scene``: hear its events, apply the autonomy mode, note its grabs."""
+        self.scene = scene
+        self.goal_owners.clear()
+        self._pending.clear()
+        if not self.autonomous:
             for name in scene.entity_names:
                 handle = scene.entity(name)
                 if isinstance(handle, CharacterHandle):
@@ -283,6 +289,7 @@ class Server:
         for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
             scene.on(kind, self._pending.append)
         scene.step(0)  # compile the kernels and install the systems before clients come
+        self._grabs = {}
         self._grabs = self._read_grabs()
 
     # -- lifetime ---------------------------------------------------------------------------
@@ -454,6 +461,8 @@ class Server:
         if window.closed:
             self.request_stop()
             return
+        if viewer.scene is not self.scene:  # R reloaded the scene in the window
+            self._adopt(viewer.scene)
         if viewer.paused != self.paused:  # Space in the window
             self.set_paused(viewer.paused)
 
