@@ -33,7 +33,12 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
     d2 = (pos[:, 0] - here[0]) ** 2 + (pos[:, 2] - here[2]) ** 2
     near = np.flatnonzero(d2 < cutoff**2)
-    exclude = set(exclude) | set(character.holding.values())  # what it carries is no obstacle
+    # what it carries is no obstacle, and neither is what the target carries
+    exclude = set(exclude) | set(character.holding.values())
+    for name in list(exclude):
+        other = scene.entity(name) if name in scene.entity_names else None
+        if other is not None and hasattr(other, "holding"):
+            exclude |= set(other.holding.values())
     skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
     best: dict[int, int] = {}
     for i in near:

@@ -41,3 +41,24 @@ class Pain(Event):
     source_body: int  # entity of the body that delivered the blow
     energy: float  # J
     level: float  # pain level after the blow
+
+
+@dataclass(slots=True, frozen=True)
+class Grabbed(Event):
+    """A grab joint was made: ``holder``'s node now holds ``held``'s node."""
+
+    kind: ClassVar[str] = "grab"
+    joint: int  # entity of the GrabJoint
+    holder: int
+    held: int
+    node: str  # the holder's node (a hand)
+
+
+@dataclass(slots=True, frozen=True)
+class Released(Event):
+    """A grab joint was removed."""
+
+    kind: ClassVar[str] = "release"
+    joint: int
+    holder: int
+    held: int

@@ -20,7 +20,7 @@ from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.components import Body, Character, GrabJoint, Link, Memory, Name, Node
 from twig_ecs.errors import SceneError, TwigError
-from twig_ecs.events import Event
+from twig_ecs.events import Event, Grabbed, Released
 from twig_ecs.handles import BodyHandle
 from twig_ecs.kernels import ensure_compiled
 from twig_ecs.library import ContentLibrary
@@ -180,9 +180,17 @@ class Scene:
         return self._spawn_spec(spec)
 
     def remove(self, name: str) -> None:
-        """Remove a body (its nodes, links, limits and any grab joints touching it)."""
+        """Remove a body (its nodes, links, limits and any grab joints touching it).
+
+        Goals of other characters that name it (as target, destination or seat) fail.
+        """
         entity = self._entity_id(name)
         self.activate()
+        for other, (_, mind) in list(esper.get_components(Character, Mind)):
+            for goal in list(mind.goals):
+                if other != entity and name in (goal.params.get("target"), goal.params.get("to"),
+                                                goal.params.get("on")):  # fmt: skip
+                    self.end_goal(self.character_handle(other), goal, False, f"'{name}' was removed")
         body = esper.component_for_entity(entity, Body)
         doomed = {entity}
         remap = self.state.remove_body(body.index)
@@ -244,6 +252,7 @@ class Scene:
         links.entity[row] = entity
         self.state.version += 1
         self.state.colliders_dirty = True  # the hand and what it holds stop colliding
+        self.emit(Grabbed(entity, h.entity, t.entity, node))
         return entity
 
     def release(self, grab: int) -> None:
@@ -256,6 +265,7 @@ class Scene:
         keep = np.ones(links.count, dtype=bool)
         keep[joint.index] = False
         remap = links.keep(keep)
+        self.emit(Released(grab, joint.holder, joint.held))
         esper.delete_entity(grab, immediate=True)
         for _, character in esper.get_component(Character):
             character.holding = {h: g for h, g in character.holding.items() if g != grab}
