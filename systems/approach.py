@@ -15,6 +15,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
+STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
 ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
 
 
@@ -41,13 +42,18 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
             exclude |= set(other.holding.values())
     skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
     best: dict[int, int] = {}
+    tall: set[int] = set()
     for i in near:
         b = int(body[i])
         if b in skip:
             continue
+        if pos[i, 1] > STEP_OVER:
+            tall.add(b)
         if b not in best or d2[i] < d2[best[b]]:
             best[b] = int(i)
-    return pos[list(best.values())] if best else np.zeros((0, 3))
+    # things lying low on the ground (a dropped doll, a ball) are stepped over or kicked
+    keep = [i for b, i in best.items() if b in tall]
+    return pos[keep] if keep else np.zeros((0, 3))
 
 
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,

@@ -27,6 +27,7 @@ class SteeringParams:
     cutoff: float = 1.8  # m: obstacles further off are ignored
     min_sq: float = 0.15  # d_min (m^2): keeps the push finite up close
     curl: bool = True  # add the sideways term
+    fade: float = 1.0  # m from the goal within which repulsion fades out
 
 
 def approach_velocity(position: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
@@ -47,6 +48,9 @@ def approach_velocity(position: np.ndarray, goal: np.ndarray, obstacles: np.ndar
             if params.curl:
                 push += np.stack([-off[:, 2], np.zeros(len(off)), off[:, 0]], axis=1)  # off x e_y
             r = (params.repulsion * push / np.maximum(params.min_sq, sq)[:, None]).sum(axis=0)
+            # near the goal the push fades, so a crowd round the target cannot hold one
+            # off a metre short
+            r *= min(1.0, dist / params.fade)
     w = a + r
     speed = float(np.linalg.norm(w))
     if speed > params.speed:
