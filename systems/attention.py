@@ -31,23 +31,35 @@ class AttentionSystem(System):
     def process(self, dt: float) -> None:
         """Perceive, fade, appraise and pick a focus for every perceiving character."""
         scene = self.scene
+        perceivers = esper.get_components(Character, Perception, Memory)
+        if not perceivers:
+            return
         state = scene.state
         nodes, bodies = state.nodes, state.bodies
-        # where every named body is, and how fast it goes (centre of its nodes)
+        # where every body is and how fast it goes (mean of its nodes), in one pass
+        n = nodes.count
+        counts = np.maximum(np.bincount(nodes.body[:n], minlength=bodies.count), 1)
+        mean_pos = np.stack(
+            [np.bincount(nodes.body[:n], nodes.pos[:n, k], bodies.count) for k in range(3)], 1
+        )
+        mean_vel = np.stack(
+            [
+                np.bincount(nodes.body[:n], nodes.pos[:n, k] - nodes.prev[:n, k], bodies.count)
+                for k in range(3)
+            ],
+            1,
+        )
+        mean_pos /= counts[:, None]
+        speed = np.linalg.norm(mean_vel / counts[:, None], axis=1) / dt
+        row_of = {int(bodies.entity[b]): b for b in range(bodies.count)}
         centres: dict[str, np.ndarray] = {}
         speeds: dict[str, float] = {}
-        body_names = {int(bodies.entity[b]): b for b in range(bodies.count)}
         for name in scene.entity_names:
-            entity = scene._names[name]
-            b = body_names.get(entity)
-            if b is None:
-                continue
-            rows = nodes.body[: nodes.count] == b
-            pos, prev = nodes.pos[: nodes.count][rows], nodes.prev[: nodes.count][rows]
-            centres[name] = pos.mean(axis=0)
-            speeds[name] = float(np.linalg.norm((pos - prev).mean(axis=0))) / dt
+            b = row_of.get(scene._names[name])
+            if b is not None:
+                centres[name], speeds[name] = mean_pos[b], float(speed[b])
         fade = 0.5 ** (dt / 1.0)
-        for entity, (_, perception, memory) in esper.get_components(Character, Perception, Memory):
+        for entity, (_, perception, memory) in perceivers:
             me = scene.character_handle(entity)
             head = me.node("head")
             face = me.head_direction
