@@ -325,6 +325,7 @@ class Viewer:
         if self.camera is None:
             self.camera = self.camera_spec.make(self.scene, size[0] / max(1, size[1]))
         renderer.options.selected = self.selected
+        renderer.options.attention = self.show_inspector  # the inspector brings the focus lines
         renderer.render(self.scene, self.camera, size, self.alpha, tuple(self.panels(size, scale)))
         if self.screenshot_requested:
             self.screenshot_requested = False

@@ -25,6 +25,7 @@ GROUND = (0.78, 0.77, 0.72)
 LIGHT_DIR = np.array([0.45, 0.8, 0.35]) / np.linalg.norm([0.45, 0.8, 0.35])
 FACE_NODES = ("head", "neck", "l_shoulder", "r_shoulder", "spine")
 EYE_COLOR = (0.06, 0.06, 0.08, 1.0)
+ATTENTION_COLOR = np.array((1.0, 0.85, 0.2, 1.0), dtype=np.float32)
 HIDDEN_LINK_COLOR = (0.35, 0.35, 0.38, 1.0)
 RING_COLOR = (1.0, 0.85, 0.1, 0.9)
 
@@ -156,6 +157,28 @@ def face_frames(pos: np.ndarray, faces: Faces, gaze: np.ndarray | None = None) -
     return fwd, left, up
 
 
+def attention_lines(scene, pos: np.ndarray) -> np.ndarray:
+    """Thin capsules from each perceiving character's head to its focus of attention."""
+    import esper
+
+    from twig_ecs.components import Memory
+
+    scene.activate()
+    starts, ends = [], []
+    for entity, memory in esper.get_component(Memory):
+        if memory.focus is None or memory.focus not in scene.entity_names:
+            continue
+        me, it = scene.entity(scene.name_of(entity)), scene.entity(memory.focus)
+        starts.append(pos[me.body.node_index("head")])
+        target = it.body.node_index("head") if "head" in it.node_names else None
+        ends.append(pos[target] if target is not None else it.position)
+    if not starts:
+        return np.zeros((0, SOLID_FLOATS), dtype=np.float32)
+    count = len(starts)
+    return solid_instances(np.array(starts), np.array(ends), np.full(count, 0.012),
+                           np.tile(ATTENTION_COLOR, (count, 1)))  # fmt: skip
+
+
 def solid_instances(a: np.ndarray, b: np.ndarray, radius: np.ndarray, color: np.ndarray) -> np.ndarray:
     """Pack instance rows (a, b, radius, colour) as float32 (n, 11)."""
     out = np.empty((len(a), SOLID_FLOATS), dtype=np.float32)
@@ -187,6 +210,7 @@ class RenderOptions:
     shadows: bool = True
     faces: bool = True
     selected: str | None = None  # entity name with a ring on the ground under it
+    attention: bool = False  # a thin yellow line from each perceiving head to its focus
 
 
 class Renderer:
@@ -339,6 +363,8 @@ class Renderer:
             caps.append(solid_instances(pos[lk.a[h]], pos[lk.b[h]], np.full(len(h), 0.008), color))
         sph = t.spheres
         balls = [solid_instances(pos[sph], pos[sph], n.radius[sph], n.color[sph])]
+        if opts.attention:
+            caps.append(attention_lines(scene, pos))
 
         faces = t.faces
         if opts.faces and len(faces.head):
