@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
 from twig_ecs.systems.constrain import constraint_args, nudge, project_limits, project_links, relax_once
 
@@ -283,6 +283,10 @@ def resolve_contacts(
         nudge(pos, b, fb, nx, ny, nz)
         nudge(pos, c, -fc, nx, ny, nz)
         nudge(pos, d, -fd, nx, ny, nz)
+        # a foot knocked off its ballistic path stops being kinematic to its leg's links,
+        # or the leg would stretch after it
+        for q in (a, b, c, d):
+            flags[q] &= ~np.uint32(NODE_MOVING)
         # a contact pushing a capsule upwards supports it: high (ground) damping
         if ny > 0.5:
             flags[a] |= NODE_IN_CONTACT

@@ -38,12 +38,13 @@ STRIDE_PER_SPEED = 0.12  # m more per m/s of walking speed
 REACH = 0.8  # of the longest step the legs allow at the pelvis's height
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
 STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
+SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
 # fmt: off
 @njit(cache=True)
-def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode, walk, swing, last_step,
+def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing, last_step,
                  steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
     """Plant, unlock and launch feet for every standing character."""
     for c in range(n_chars):
@@ -52,9 +53,19 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
             swing[c, f] = max(0.0, swing[c, f] - dt)
         if mode[c] != STAND or flags[nd[PELVIS]] & NODE_LOCKED:
             continue  # sitting, limp or frozen (a locked pelvis): no stepping
-        # plant: a foot on the ground that is not mid-step locks in place
+        # plant: a foot on the ground that is not mid-step locks in place; a planted
+        # foot whose leg is pulled past its length slips (static friction gives way)
         for f in range(2):
             i = nd[L_FOOT + f]
+            h = nd[L_HIP + f]
+            if flags[i] & NODE_LOCKED:
+                gap = math.sqrt((pos[i, 0] - pos[h, 0]) ** 2 + (pos[i, 1] - pos[h, 1]) ** 2
+                                + (pos[i, 2] - pos[h, 2]) ** 2)  # fmt: skip
+                if gap > SLIP * leg_length[c]:
+                    flags[i] &= ~np.uint32(NODE_LOCKED)
+                    for k in range(3):
+                        prev[i, k] = pos[i, k]
+                    continue
             if flags[i] & NODE_LOCKED and move_time[i] > 0.0:  # landed early
                 move_time[i] = 0.0
                 flags[i] &= ~np.uint32(NODE_MOVING)
@@ -63,6 +74,7 @@ def control_gait(pos, prev, flags, move_time, move_gravity, radius, nodes, mode,
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
                 for k in range(3):
                     prev[i, k] = pos[i, k]
+                    lock_pos[i, k] = pos[i, k]  # held where it stands (not where it last stood)
         if swing[c, 0] > 0.0 or swing[c, 1] > 0.0:
             continue  # one foot at a time
         wx = walk[c, 0]
@@ -159,7 +171,7 @@ class GaitSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_gait(n.pos, n.prev, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes, ch.mode,
+        control_gait(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes, ch.mode,
                      ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
                      ch.count, self.scene.settings.gravity, dt)  # fmt: skip
 

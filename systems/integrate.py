@@ -7,6 +7,8 @@ Writes ``pos``, ``prev``, ``vel`` (the step's displacement before damping), clea
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -17,7 +19,7 @@ from twig_ecs.system import System
 # fmt: off
 @njit(cache=True)
 def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air, damp_ground,
-                    damp_ref, damp_rel, move_time, move_gravity, flags, count, gravity, dt):
+                    damp_ref, damp_rel, move_time, move_gravity, flags, count, gravity, dt, max_speed):
     """One Verlet step for every node, in place."""
     for i in range(count):
         for k in range(3):
@@ -44,8 +46,12 @@ def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air,
             ref = -1
             if move_gravity[i] == 0:
                 g = 0.0
+        # a speed limit: no part of a body moves faster than max_speed, so a rare
+        # fight between constraints cannot fling a node across the scene
+        speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2) / dt
+        cap = max_speed / speed if speed > max_speed else 1.0
         for k in range(3):
-            v = vel[i, k]
+            v = vel[i, k] * cap
             if ref >= 0:
                 # "muscle" damping: remove part of the velocity relative to ref
                 v -= damp_rel[i] * (v - vel[ref, k])
@@ -70,4 +76,4 @@ class IntegrateSystem(System):
         n = s.nodes
         integrate_nodes(n.pos, n.prev, n.vel, n.acc, n.ctrl_acc, n.lock_pos, n.inv_mass, n.damp_air,
                         n.damp_ground, n.damp_ref, n.damp_rel, n.move_time, n.move_gravity, n.flags,
-                        n.count, self.scene.settings.gravity, dt)  # fmt: skip
+                        n.count, self.scene.settings.gravity, dt, self.scene.settings.max_speed)  # fmt: skip

@@ -45,7 +45,7 @@ from twig_ecs.yamldoc import YDict
 
 SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "systems", "entities")
 SYSTEM_KEYS = ("use", "name", "before", "after")
-SETTINGS_KEYS = ("gravity", "iterations", "contact_energy")
+SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
                "character", "perception", "behaviors")  # fmt: skip
 CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
@@ -59,6 +59,7 @@ class Settings:
     gravity: np.ndarray = field(default_factory=lambda: np.array([0.0, -9.81, 0.0]))
     iterations: int = 8  # relaxation passes per step, for constraints and for contacts
     contact_energy: float = 0.05  # J: impacts at least this strong become Contact events
+    max_speed: float = 25.0  # m/s: no node moves faster (a guard against constraint fights)
 
 
 @dataclass
@@ -120,6 +121,7 @@ def read_settings(doc: YDict) -> Settings:
     settings.gravity = np.array(read(s, "gravity", "settings", vec3, tuple(settings.gravity)))
     settings.iterations = read(s, "iterations", "settings", integer(1, 64), settings.iterations)
     settings.contact_energy = read(s, "contact_energy", "settings", nonnegative, settings.contact_energy)
+    settings.max_speed = read(s, "max_speed", "settings", positive, settings.max_speed)
     return settings
 
 
