@@ -44,8 +44,8 @@ ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 # fmt: off
 @njit(cache=True)
-def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing, last_step,
-                 steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
+def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
+                 last_step, steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
     """Plant, unlock and launch feet for every standing character."""
     for c in range(n_chars):
         nd = nodes[c]
@@ -171,8 +171,8 @@ class GaitSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_gait(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes, ch.mode,
-                     ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
+        control_gait(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes,
+                     ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
                      ch.count, self.scene.settings.gravity, dt)  # fmt: skip
 
 

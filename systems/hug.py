@@ -22,7 +22,7 @@ CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
 WRAP_TIME = 3.0  # s to get both hands round
 REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
 CREEP = 0.3  # m/s of the last steps in, arms going round
-LEAN_IN = 0.15  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
+LEAN_IN = 0.22  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
 
 
 @register

@@ -111,7 +111,8 @@ def test_hug_joins_both_hands_behind_the_target_torso_and_lets_go(pair):
         if goal.finished:
             break
     assert goal.status == "done", goal.reason
-    assert behind and np.median(behind) > 0.0, "the hands are behind the target's torso"
+    # (the grab joints draw the hands in over the first moments of the hold)
+    assert behind and np.median(behind[-len(behind) // 4 :]) > 0.0, "the hands are behind the target's torso"
     assert closest <= 0.02, "the target touches the hugger's torso"
     pair.step(2)
     assert a.holding == {} and pair.grabs() == [], "the hug is released"
