@@ -18,12 +18,13 @@ def story(tmp_path_factory):
     plot = folder / "plot.png"
     report = run_with_report("schoolyard", 90.0, seed=0, trace=trace, plot=plot)
     with open(trace) as f:
-        rows = [r for r in csv.DictReader(f) if r["character"] == "small_child"]
-    return report, rows, plot
+        everyone = list(csv.DictReader(f))
+    rows = [r for r in everyone if r["character"] == "small_child"]
+    return report, rows, plot, everyone
 
 
 def test_the_small_child_leaves_looks_back_returns_and_hugs(story):
-    report, _, _ = story
+    report, _, _, _ = story
     small = report["characters"]["small_child"]
     assert small["max_distance_from_caregiver"] > 5.0, "it wanders off beyond several metres"
     assert small["look_backs"] >= 2
@@ -33,7 +34,7 @@ def test_the_small_child_leaves_looks_back_returns_and_hugs(story):
 
 
 def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
-    _, rows, _ = story
+    _, rows, _, _ = story
     anxiety = np.array([float(r["anxiety"]) for r in rows])
     distance = np.array([float(r["caregiver_distance"]) for r in rows])
     behaviour = [r["behaviour"] for r in rows]
@@ -57,10 +58,23 @@ def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
 
 
 def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(story, tmp_path):
-    report, _, plot = story
+    report, _, plot, _ = story
     kids = report["characters"]
     assert kids["small_child"]["ball_touches"] + kids["big_child"]["ball_touches"] >= 10
     assert report["merry_go_round_peak_rad_s"] > 0.5, "a child spun it"
     assert kids["small_child"]["held_fraction"]["ragdoll"] > 0.9
     assert kids["parent"]["time_per_behaviour"]["watch"] > 80.0
     assert plot.stat().st_size > 10_000
+
+
+def test_a_fight_breaks_out_and_the_small_child_flinches_away_from_the_blows(story):
+    report, _, _, everyone = story
+    assert report["characters"]["big_child"]["fights"] >= 1
+    fights = [
+        float(r["time"]) for r in everyone if r["character"] == "big_child" and r["behaviour"] == "grapple"
+    ]
+    flinches = [
+        float(r["time"]) for r in everyone if r["character"] == "small_child" and r["behaviour"] == "withdraw"
+    ]
+    assert fights and flinches
+    assert any(fights[0] <= t <= fights[-1] + 1.0 for t in flinches), "the withdrawal follows the blows"
