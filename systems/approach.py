@@ -41,18 +41,16 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
         if other is not None and hasattr(other, "holding"):
             exclude |= set(other.holding.values())
     skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
+    # the nearest node of each body that stands higher than a step: things lying low on
+    # the ground (a dropped doll, a ball, a deck's rim) are stepped over or kicked
     best: dict[int, int] = {}
-    tall: set[int] = set()
     for i in near:
         b = int(body[i])
-        if b in skip:
+        if b in skip or pos[i, 1] <= STEP_OVER:
             continue
-        if pos[i, 1] > STEP_OVER:
-            tall.add(b)
         if b not in best or d2[i] < d2[best[b]]:
             best[b] = int(i)
-    # things lying low on the ground (a dropped doll, a ball) are stepped over or kicked
-    keep = [i for b, i in best.items() if b in tall]
+    keep = list(best.values())
     return pos[keep] if keep else np.zeros((0, 3))
 
 

@@ -14,7 +14,7 @@ from twig_ecs.components import Character, Feisty
 from twig_ecs.steering import ground_distance
 
 COOLDOWN = 25.0  # s between fights
-FIGHT_TIME = 2.0  # s of grappling
+FIGHT_TIME = 3.0  # s of grappling
 
 
 @register

@@ -67,14 +67,23 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     assert plot.stat().st_size > 10_000
 
 
-def test_a_fight_breaks_out_and_the_small_child_flinches_away_from_the_blows(story):
-    report, _, _, everyone = story
-    assert report["characters"]["big_child"]["fights"] >= 1
-    fights = [
-        float(r["time"]) for r in everyone if r["character"] == "big_child" and r["behaviour"] == "grapple"
-    ]
-    flinches = [
-        float(r["time"]) for r in everyone if r["character"] == "small_child" and r["behaviour"] == "withdraw"
-    ]
-    assert fights and flinches
-    assert any(fights[0] <= t <= fights[-1] + 1.0 for t in flinches), "the withdrawal follows the blows"
+def test_a_feisty_child_picks_a_fight_and_the_small_one_flinches_away(tmp_path, scenes):
+    from twig_ecs import Scene
+
+    yard = tmp_path / "fight.yaml"
+    yard.write_text(
+        "twig: 1\nentities:\n"
+        "  - name: big_child\n    body: humanoid\n    height: 1.35\n    character: true\n"
+        "    behaviors: [{use: fight, rival: small_child, temper: 5.0, reach: 3.0}]\n"
+        "  - name: small_child\n    body: humanoid\n    height: 1.05\n    position: [0, 0, 2]\n"
+        "    facing: 180\n    pain: {threshold: 1.5}\n    character: true\n"
+    )
+    scene = Scene.load(yard, seed=0)
+    scenes.append(scene)
+    changes = []
+    scene.on("behavior.changed", lambda e: changes.append((scene.time, scene.name_of(e.character), e.new)))
+    scene.run(8.0)
+    fights = [t for t, who, new in changes if who == "big_child" and new == "grapple"]
+    flinches = [t for t, who, new in changes if who == "small_child" and new == "withdraw"]
+    assert fights, "the fight behaviour starts a grapple when the rival is near"
+    assert flinches and flinches[0] > fights[0], "the blows hurt and the small child flinches away"
