@@ -25,7 +25,7 @@ def fetch(character, goal: Goal, target: str, hand: str) -> bool:
     if hand in character.holding:
         return True
     m = goal.memory
-    scale = character._chars().scale[character._crow]
+    scale = character.scale
     character.look_at(target)
     if not m.get("near"):
         if not steer_to(character, goal, target, 0.45 * scale):

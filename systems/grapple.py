@@ -31,7 +31,7 @@ class Grapple(Behavior):
         """Close in, then punch left and right in turn."""
         target = goal.params["target"]
         m = goal.memory
-        scale = character._chars().scale[character._crow]
+        scale = character.scale
         character.look_at(target, node="head")
         other = character.scene.entity(target)
         if "fighting" not in m:

@@ -41,7 +41,7 @@ class Hug(Behavior):
         phase = m.setdefault("phase", "approach")
         character.look_at(target, node="head")
         other = character.scene.entity(target)
-        scale = character._chars().scale[character._crow]
+        scale = character.scale
         if phase == "approach":
             character.pose("hug")
             if steer_to(character, goal, target, CLOSE * scale + REACH_IN):

@@ -46,7 +46,7 @@ class Play(Behavior):
         playful = self.settings(character)
         toy = self.scene.entity(playful.toy)
         character.look_at(playful.toy)
-        scale = character._chars().scale[character._crow]
+        scale = character.scale
         where = toy.position
         if ground_distance(character.position, where) < KICK_RANGE * scale:
             now = self.scene.time

@@ -220,6 +220,11 @@ class CharacterHandle(BodyHandle):
         return self._chars().walk[self._crow].copy()
 
     @property
+    def scale(self) -> float:
+        """Body height / 1.75 m: lengths in the controllers and behaviours scale by it."""
+        return float(self._chars().scale[self._crow])
+
+    @property
     def stand_height(self) -> float:
         """Pelvis height (m) the character stands at."""
         return float(self._chars().stand_height[self._crow])
@@ -416,7 +421,7 @@ class CharacterHandle(BodyHandle):
             k = int(np.argmin(np.linalg.norm(pos - hand_pos, axis=1)))
             node = other.node_names[k]
         distance = float(np.linalg.norm(other.node(node) - hand_pos))
-        reach = GRAB_REACH * self._chars().scale[self._crow]
+        reach = GRAB_REACH * self.scale
         if distance > reach:
             raise TwigError(f"'{target}' is {distance:.2f} m from the {hand_name} hand of '{self.name}' "
                             f"(grabbing needs {reach:.2f} m or less): reach for it first")  # fmt: skip
