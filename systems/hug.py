@@ -93,7 +93,7 @@ class Hug(Behavior):
             character.pose("hang", hand=hand)
         toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
-        character._chars().lean[character._crow] = toward * LEAN_IN * scale
+        character.lean(toward * LEAN_IN * scale)
         if character.scene.time - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
 

@@ -36,7 +36,7 @@ class SitDown(Behavior):
                 if not steer_to(character, goal, seat, 0.45):
                     return
             character.sit(on=seat)
-            m["seat"] = character.scene.state.characters.seat[character._crow][1]
+            m["seat"] = character.seat[1]
         if abs(character.position[1] - m["seat"]) < SEATED:
             self.finish(character, goal)
 

@@ -367,6 +367,15 @@ class CharacterHandle(BodyHandle):
         ch.lean[row] = ahead * lean
         ch.crouch[row] = min(0.45 * ch.stand_height[row], max(0.0, drop - lowered))
 
+    def lean(self, offset: Sequence[float] | None) -> None:
+        """Hold the shoulders ``offset`` (m, on the ground plane) ahead of the pelvis; None: upright."""
+        self._chars().lean[self._crow] = 0.0 if offset is None else _vector(offset, "lean") * [1.0, 0.0, 1.0]
+
+    @property
+    def seat(self) -> np.ndarray:
+        """Where the pelvis goes when sitting (set by :meth:`sit`)."""
+        return self._chars().seat[self._crow].copy()
+
     def reach(self, target: str | Sequence[float], hand: str = "right", node: str | None = None) -> None:
         """Reach a hand (or ``"both"``) towards a point or an entity."""
         self._aim(self._hands(hand), REACH, target, node)
