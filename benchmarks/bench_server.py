@@ -18,25 +18,10 @@ import argparse
 import asyncio
 import json
 import statistics
-import subprocess
 import sys
 import time
 
-from twig_ecs.client import AsyncClient, Client
-
-
-def start_server() -> tuple[subprocess.Popen, int]:
-    command = [sys.executable, "-m", "twig_ecs", "serve", "schoolyard", "--port", "0"]
-    proc = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        line = proc.stderr.readline()
-        if " port " in line:
-            return proc, int(line.split(" port ")[1].split()[0])
-        if not line and proc.poll() is not None:
-            break
-    proc.kill()
-    raise SystemExit("the server did not start")
+from twig_ecs.client import AsyncClient, Client, spawn_server
 
 
 def latency(port: int, requests: int) -> dict[str, dict[str, float]]:
@@ -87,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clients", type=int, default=8, help="throughput clients (default 8)")
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args(argv)
-    proc, port = start_server()
+    proc, port = spawn_server("schoolyard")
     try:
         lat = latency(port, args.requests)
         thr = asyncio.run(throughput(port, args.clients, args.seconds))

@@ -15,11 +15,10 @@ fast as it can compute (the same story, deterministic, in a fraction of the time
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import time
 
-from twig_ecs.client import Client, Notification, RemoteError
+from twig_ecs.client import Client, Notification, RemoteError, spawn_server
 
 #: Longest a scene of the story may take (simulated seconds) before we move on.
 ACT_LIMIT = 40.0
@@ -149,22 +148,6 @@ def stage(twig: Client, fast: bool) -> None:
         twig.resume()
 
 
-def spawn_server() -> tuple[subprocess.Popen, int]:
-    """Start ``twig serve schoolyard --scripted`` on a free port; return it and the port."""
-    command = [sys.executable, "-m", "twig_ecs", "serve", "schoolyard", "--scripted", "--port", "0"]
-    proc = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline:
-        line = proc.stderr.readline()
-        print(line, end="", file=sys.stderr)
-        if " port " in line:
-            return proc, int(line.split(" port ")[1].split()[0])
-        if not line and proc.poll() is not None:
-            break
-    proc.kill()
-    raise SystemExit("the server did not start")
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--host", default="127.0.0.1")
@@ -175,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     proc = None
     if args.spawn_server:
-        proc, args.port = spawn_server()
+        proc, args.port = spawn_server("schoolyard", "--scripted", echo=True)
     try:
         with Client(args.host, args.port, token=args.token, timeout=60) as twig:
             stage(twig, args.fast)

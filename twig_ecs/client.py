@@ -26,6 +26,8 @@ import collections
 import itertools
 import json
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from typing import Any
@@ -275,3 +277,24 @@ class AsyncClient:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
+
+
+def spawn_server(*args: str, echo: bool = False, timeout: float = 120.0) -> tuple[subprocess.Popen, int]:
+    """Start ``twig serve ARGS --port 0`` in a subprocess; return it and the port it took.
+
+    The caller stops it (``proc.terminate()``). With ``echo`` the server's start-up lines
+    are copied to stderr. Raises TwigError when it does not start in ``timeout`` s.
+    """
+    command = [sys.executable, "-m", "twig_ecs", "serve", *args, "--port", "0"]
+    proc = subprocess.Popen(command, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stderr.readline()
+        if echo:
+            print(line, end="", file=sys.stderr)
+        if " port " in line:
+            return proc, int(line.split(" port ")[1].split()[0])
+        if not line and proc.poll() is not None:
+            break
+    proc.kill()
+    raise TwigError("the server did not start")
