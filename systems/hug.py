@@ -48,6 +48,7 @@ class Hug(Behavior):
                 m["phase"], m["since"] = "wrap", character.scene.time
             return
         if phase == "wrap":
+            now = character.scene.time
             # close in slowly while the arms go round
             if ground_distance(character.position, other.position) > CLOSE * scale:
                 toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
@@ -69,16 +70,16 @@ class Hug(Behavior):
                 if character.holding.get(hand) == target:
                     continue
                 character.reach(tuple(back), hand=hand)
-                node = ("l_hand", "r_hand")[hand == "right"]
-                if np.linalg.norm(character.node(node) - other.node(held)) < GRAB_REACH * scale:
+                grip = _within_reach(character, other, hand, held, late=now - m["since"] > 0.5 * WRAP_TIME)
+                if grip is not None:
                     try:
-                        character.grab(target, hand=hand, node=held)
+                        character.grab(target, hand=hand, node=grip)
                         character.pose("hug", hand=hand)
                     except TwigError:
                         pass
             if all(character.holding.get(h) == target for h in hands):
-                m["phase"], m["since"] = "hold", character.scene.time
-            elif character.scene.time - m["since"] > WRAP_TIME:
+                m["phase"], m["since"] = "hold", now
+            elif now - m["since"] > WRAP_TIME:
                 self.finish(character, goal, False, "could not get its arms round")
             return
         # hold: the arms go slack (the grab joints keep the hands on its back) and the
@@ -115,6 +116,18 @@ class Hug(Behavior):
                 character.release(hand)
         character.stop()
         character.look_at(None)
+
+
+def _within_reach(character, other, hand: str, held: str, late: bool) -> str | None:
+    """The node of ``other`` that ``hand`` can grip now: the one behind its back, or late
+    in the wrap (a short arm, one hand round a grown-up) the nearer of its hips."""
+    palm = character.node(("l_hand", "r_hand")[hand == "right"])
+    reach = GRAB_REACH * character.scale
+    candidates = (held, "l_hip", "r_hip") if late and held == "pelvis" else (held,)
+    if late and held == "spine":
+        candidates = (held, "l_shoulder", "r_shoulder")
+    best = min(candidates, key=lambda n: float(np.linalg.norm(palm - other.node(n))))
+    return best if np.linalg.norm(palm - other.node(best)) < reach else None
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -228,11 +228,12 @@ class Scene:
 
     # -- grab joints --------------------------------------------------------------------
 
-    def grab(self, holder: str, node: str, target: str, target_node: str) -> int:
-        """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a zero-length link.
+    def grab(self, holder: str, node: str, target: str, target_node: str, standoff: float = 0.0) -> int:
+        """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a link that closes.
 
         The two nodes are drawn together by the constraint solver over a few steps and
-        then held (a ball joint, SPEC 3).
+        then held (a ball joint, SPEC 3) - at ``standoff`` metres apart when that is
+        given: a hand on the surface of a torso rather than at the node inside it.
         Returns the grab joint's entity; :meth:`release` removes it.
         """
         self.activate()
@@ -246,6 +247,7 @@ class Scene:
         # the joint starts at the nodes' distance and closes at GRAB_CLOSING m/s (see
         # ConstrainSystem): a hand pulls the thing in, it does not snap to it
         links.rest[row] = float(np.linalg.norm(self.state.nodes.pos[a] - self.state.nodes.pos[b]))
+        links.min_rest[row] = max(0.0, float(standoff))
         links.flags[row] = LINK_GRAB
         links.body[row] = h.body.index
         entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))

@@ -59,6 +59,7 @@ LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "a": (np.int32, (), -1),
     "b": (np.int32, (), -1),
     "rest": (np.float64, (), 0.0),
+    "min_rest": (np.float64, (), 0.0),  # a grab joint closes down to this length (its standoff)
     "radius": (np.float64, (), 0.0),
     "flags": (np.uint32, (), 0),
     "group": (np.int32, (), 0),  # self-collision group (0: collides with any link of its body)
@@ -345,8 +346,12 @@ class PhysicsState:
                     if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
-        # a held thing and the hand that holds it do not push each other apart
+        # a held thing and the hand that holds it do not push each other apart; nor does
+        # a carried thing (not a character) collide with its carrier anywhere, else a
+        # child steps on the doll it carries, pins it under a planted foot and is pulled
+        # over by its own arm
         grabs = np.flatnonzero(lk.flags[: lk.count] & LINK_GRAB)
+        characters = set(self.characters.body[: self.characters.count].tolist())
         for g in grabs:
             a, b = int(lk.a[g]), int(lk.b[g])
             ba, bb = int(n.body[a]), int(n.body[b])
@@ -355,6 +360,10 @@ class PhysicsState:
                     col.ignore[c] = bb
                 elif int(col.a[c]) == b or int(col.b[c]) == b:
                     col.ignore[c] = ba
+            for holder, held in ((ba, bb), (bb, ba)):
+                if held not in characters:
+                    mine = (col.body[:total] == holder) & (col.ignore[:total] == -1)
+                    col.ignore[:total][mine] = held
         self.version += 1
 
     # -- read-outs ------------------------------------------------------------------
