@@ -39,7 +39,7 @@ REACH = 0.8  # of the longest step the legs allow at the pelvis's height
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
 STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
-FOOT_GAP = 1.0  # half hip widths: least sideways gap between a landing foot and the planted one
+FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 

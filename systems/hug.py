@@ -16,6 +16,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import ground_distance
+from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
@@ -72,8 +73,9 @@ class Hug(Behavior):
                 character.reach(tuple(back), hand=hand)
                 grip = _within_reach(character, other, hand, held, late=now - m["since"] > 0.5 * WRAP_TIME)
                 if grip is not None:
+                    standoff = _surface(character, other, grip)
                     try:
-                        character.grab(target, hand=hand, node=grip)
+                        character.grab(target, hand=hand, node=grip, standoff=standoff)
                         character.pose("hug", hand=hand)
                     except TwigError:
                         pass
@@ -91,7 +93,7 @@ class Hug(Behavior):
         else:
             character.stop()
         for hand in m["hands"]:
-            character.pose("hang", hand=hand)
+            character.pose("hug", hand=hand)
         toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
         character.lean(toward * LEAN_IN * scale)
@@ -128,6 +130,20 @@ def _within_reach(character, other, hand: str, held: str, late: bool) -> str | N
         candidates = (held, "l_shoulder", "r_shoulder")
     best = min(candidates, key=lambda n: float(np.linalg.norm(palm - other.node(n))))
     return best if np.linalg.norm(palm - other.node(best)) < reach else None
+
+
+def _surface(character, other, node: str) -> float:
+    """How far from ``other``'s ``node`` a hand rests on its surface: the thickest
+    capsule at that node plus the forearm's."""
+    links = character.scene.state.links
+    rows = np.arange(links.count)
+    collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
+    a, b = links.a[: links.count], links.b[: links.count]
+    at, hand = other._row(node), character._row("r_hand")
+    body = collide & ((a == at) | (b == at))
+    arm = collide & ((a == hand) | (b == hand))
+    thick = float(links.radius[rows[body]].max()) if body.any() else 0.0
+    return thick + (float(links.radius[rows[arm]].max()) if arm.any() else 0.0)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

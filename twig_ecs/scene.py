@@ -31,6 +31,9 @@ from twig_ecs.store import LINK_GRAB, PhysicsState
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
+#: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
+RELEASE_GRACE_STEPS = 20
+
 _world_ids = itertools.count(1)
 
 
@@ -264,6 +267,8 @@ class Scene:
         if joint is None:
             raise TwigError(f"no grab joint {grab}")
         links = self.state.links
+        # the hand slides back out of what it held without being flung off it
+        self.state.release_grace(links.a[joint.index], links.b[joint.index], RELEASE_GRACE_STEPS)
         keep = np.ones(links.count, dtype=bool)
         keep[joint.index] = False
         remap = links.keep(keep)
@@ -328,6 +333,7 @@ class Scene:
             self._install()
         ensure_compiled()
         for _ in range(n):
+            self.state.tick_released()
             if self.state.colliders_dirty:
                 self.state.rebuild_colliders()
             self.events.clear()
