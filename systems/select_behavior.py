@@ -32,7 +32,8 @@ class SelectBehaviorSystem(System):
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
-        for entity, (_, mind) in esper.get_components(Character, Mind):
+        batches: dict[str, tuple[list[int], list[int]]] = {}
+        for entity, (character, mind) in esper.get_components(Character, Mind):
             proposals = mind.activations
             proposals.setdefault("idle", IDLE)
             current = mind.winner if mind.winner in proposals else None
@@ -42,9 +43,10 @@ class SelectBehaviorSystem(System):
                 margin = proposals[best] - (proposals[current] + STICKINESS)
                 if margin <= 0.0 or (held and margin < URGENT):
                     best = current
-            handle = scene.character_handle(entity)
             goal = mind.goal
+            handle = None  # made only when needed: most steps most characters just carry on
             if best != mind.winner:
+                handle = scene.character_handle(entity)
                 old = behaviors.get(mind.winner)
                 if old is not None:
                     old.stop(handle, goal if goal is not None and goal.behavior == mind.winner else None)
@@ -62,4 +64,12 @@ class SelectBehaviorSystem(System):
             own_goal = goal if goal is not None and goal.behavior == best else None
             if own_goal is not None and own_goal.status == "pending":
                 own_goal.status, own_goal.started = "active", now
-            winner.act(handle, mind, own_goal, dt)
+            if winner.batch:
+                rows, entities = batches.setdefault(best, ([], []))
+                rows.append(character.index)
+                entities.append(entity)
+                continue
+            winner.act(handle or scene.character_handle(entity), mind, own_goal, dt)
+        # batch behaviours act once for all the characters they won, after the others
+        for name, (rows, entities) in batches.items():
+            behaviors[name].act_batch(rows, entities, dt)

@@ -62,10 +62,14 @@ class Scene:
         self.event_counts: Counter[str] = Counter()
         self._handlers: dict[str, list[Callable[[Event], None]]] = {}
         self._names: dict[str, int] = {}
+        self._name_by_entity: dict[int, str] = {}  # the reverse of _names: handles are made per step
         self._world = f"twig-scene-{next(_world_ids)}"
         self._closed = False
         self.schedule = Schedule()
         self._installed: list[System] | None = None
+        #: Bumped whenever a goal is queued (and on removals): see :meth:`goal_holders`.
+        self.goal_epoch = 0
+        self._goal_holders: tuple[tuple[int, int], list] = ((-1, -1), [])
         self.activate()
         from twig_ecs import systems as s
         from twig_ecs.behavior import load_builtin_behaviors
@@ -148,6 +152,7 @@ class Scene:
         entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
                             spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
         self._names[spec.name] = entity
+        self._name_by_entity[entity] = spec.name
         if spec.character is not None:
             make_character(self, entity, spec.facing, spec.character)
             return CharacterHandle(self, entity, spec.name)
@@ -207,6 +212,8 @@ class Scene:
             esper.delete_entity(e, immediate=True)
         self._apply_remap(remap)
         del self._names[name]
+        del self._name_by_entity[entity]
+        self.goal_epoch += 1
 
     def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
         """Follow a store compaction: rewrite every row index held by components."""
@@ -359,7 +366,21 @@ class Scene:
 
     def character_handle(self, entity: int) -> CharacterHandle:
         """The handle of a character by entity id."""
-        return CharacterHandle(self, entity, self.name_of(entity) or str(entity))
+        name = self._name_by_entity.get(entity)
+        return CharacterHandle(self, entity, name if name is not None else (self.name_of(entity) or str(entity)))
+
+    def goal_holders(self) -> list[tuple[int, Mind]]:
+        """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
+
+        Cached per step and refreshed when a goal is queued; a goal that ended since
+        leaves a stale entry, which callers skip (they check ``mind.goal`` anyway).
+        """
+        key = (self.frame, self.goal_epoch)
+        if self._goal_holders[0] != key:
+            self.activate()
+            holders = [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind) if mind.goals]
+            self._goal_holders = (key, holders)
+        return self._goal_holders[1]
 
     def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """Finish a character's goal: mark it, drop it from the queue, report it."""
@@ -394,6 +415,9 @@ class Scene:
 
     def name_of(self, entity: int) -> str | None:
         """The name of an entity (a body, or the body owning a node or link)."""
+        name = self._name_by_entity.get(entity)
+        if name is not None:  # a named body: the common case, without esper look-ups
+            return name
         self.activate()
         for comp in (Node, Link):
             part = esper.try_component(entity, comp)

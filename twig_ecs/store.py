@@ -158,7 +158,13 @@ class Block:
     def __post_init__(self) -> None:
         assert not {"count", "arrays", "fields"} & self.fields.keys(), "reserved field name"
         for name, (dtype, shape, fill) in self.fields.items():
-            self.arrays[name] = np.full((4, *shape), fill, dtype=dtype)
+            self._set(name, np.full((4, *shape), fill, dtype=dtype))
+
+    def _set(self, name: str, array: np.ndarray) -> None:
+        # also an instance attribute: ``block.pos`` is then a plain attribute read, which
+        # hot Python paths do thousands of times a step (a __getattr__ costs ~5x more)
+        self.arrays[name] = array
+        self.__dict__[name] = array
 
     def __getattr__(self, name: str) -> np.ndarray:
         try:
@@ -181,7 +187,7 @@ class Block:
             for name, (dtype, shape, fill) in self.fields.items():
                 grown = np.full((new_cap, *shape), fill, dtype=dtype)
                 grown[: self.count] = self.arrays[name][: self.count]
-                self.arrays[name] = grown
+                self._set(name, grown)
         for name, (_dtype, _shape, fill) in self.fields.items():
             self.arrays[name][start:stop] = fill
         self.count = stop
