@@ -214,6 +214,7 @@ def load_builtin_behaviors() -> dict[str, type[Behavior]]:
         play,
         posture_goals,
         ride,
+        wander,
         watch,
         withdraw,
     )

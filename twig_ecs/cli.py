@@ -21,6 +21,26 @@ def _add_scene_args(p: argparse.ArgumentParser, scene_default: str | None = None
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+    p.add_argument("--count", type=str, default=None, metavar="N",
+                   help="the scene's 'count' parameter (e.g. characters in the crowd)")  # fmt: skip
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
+                   help="set a parameter the scene declares (repeatable)")  # fmt: skip
+    p.set_defaults(scene_parameters=True)
+
+
+def _param(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got '{text}'")
+    return name.strip(), value.strip()
+
+
+def scene_parameters(args: argparse.Namespace) -> dict[str, str]:
+    """The scene parameters given on the command line (``--param k=v``, ``--count N``)."""
+    out = dict(getattr(args, "param", []) or [])
+    if getattr(args, "count", None) is not None:
+        out["count"] = args.count
+    return out
 
 
 def _positive_seconds(text: str) -> float:
@@ -66,7 +86,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
                              progress=args.report != "json" and sys.stderr.isatty(), trace=args.trace,
-                             plot=args.plot)  # fmt: skip  # fmt: skip
+                             plot=args.plot, parameters=args.parameters)  # fmt: skip
     if args.report == "json":
         print(json.dumps(report, indent=2))
     else:
@@ -116,6 +136,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``twig`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.parameters = scene_parameters(args)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0

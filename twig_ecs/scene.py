@@ -95,15 +95,21 @@ class Scene:
 
     @classmethod
     def load(
-        cls, source: str | Path, seed: int = 0, content: tuple[str | Path, ...] | list[str | Path] = ()
+        cls,
+        source: str | Path,
+        seed: int = 0,
+        content: tuple[str | Path, ...] | list[str | Path] = (),
+        **parameters: int | float | str,
     ) -> Scene:
         """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
 
-        ``content`` lists extra folders of templates and scenes. The whole file is
-        validated before anything is created; errors raise :class:`SceneError`.
+        ``content`` lists extra folders of templates and scenes; keyword ``parameters``
+        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``).
+        The whole file is validated before anything is created; errors raise
+        :class:`SceneError`.
         """
         library = ContentLibrary(content)
-        plan = read_scene(source, library)
+        plan = read_scene(source, library, parameters)
         return cls.from_plan(plan, seed)
 
     @classmethod
@@ -111,6 +117,7 @@ class Scene:
         """Build a scene from a validated :class:`ScenePlan`."""
         scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
         scene.source = plan.file
+        scene.parameters = dict(plan.parameters)
         try:
             for system_spec in plan.systems:
                 item, here = system_spec.where
@@ -146,6 +153,8 @@ class Scene:
         return scene
 
     source: str | None = None
+    #: The values of the scene file's parameters it was loaded with.
+    parameters: dict[str, int | float] = {}
 
     def _spawn_spec(self, spec: EntitySpec) -> BodyHandle:
         self.activate()
@@ -367,7 +376,9 @@ class Scene:
     def character_handle(self, entity: int) -> CharacterHandle:
         """The handle of a character by entity id."""
         name = self._name_by_entity.get(entity)
-        return CharacterHandle(self, entity, name if name is not None else (self.name_of(entity) or str(entity)))
+        if name is None:
+            name = self.name_of(entity) or str(entity)
+        return CharacterHandle(self, entity, name)
 
     def goal_holders(self) -> list[tuple[int, Mind]]:
         """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
