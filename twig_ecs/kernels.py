@@ -61,11 +61,22 @@ def _prune(base: Path, current: Path) -> None:
 
 
 def _kernels() -> list:
-    from twig_ecs.systems import arms, collide, constrain, gait, gaze, integrate, posture, respiration, sense
+    from twig_ecs.systems import (
+        arms,
+        collide,
+        constrain,
+        gait,
+        gaze,
+        integrate,
+        posture,
+        respiration,
+        sense,
+        wander,
+    )
 
-    return [integrate.integrate_nodes, constrain.solve_constraints, collide.broad_phase,
+    return [integrate.integrate_nodes, constrain.solve_constraints, collide.collider_pairs,
             collide.solve_collisions, sense.feel_impacts, gait.control_gait, gaze.control_gaze,
-            posture.control_posture, arms.control_arms, respiration.breathe]  # fmt: skip
+            posture.control_posture, arms.control_arms, respiration.breathe, wander.steer_crowd]  # fmt: skip
 
 
 def ensure_compiled() -> None:
