@@ -98,6 +98,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 1 if report["nan"] else 0
 
 
+def _list(kind, choices=None):
+    def parse(text: str):
+        items = [kind(x) for x in text.split(",") if x.strip()]
+        if choices is not None and not set(items) <= set(choices):
+            raise argparse.ArgumentTypeError(f"choose from {', '.join(choices)}")
+        return tuple(items)
+
+    return parse
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Time the schoolyard, crowds and ragdoll piles (and MuJoCo's ragdolls beside them)."""
+    from twig_ecs.bench.run import progress_printer, run_bench
+    from twig_ecs.bench.table import format_report
+
+    say = progress_printer()
+    report = run_bench(args.cases, args.sizes, args.steps, args.warmup, mujoco=not args.no_mujoco, say=say)
+    if sys.stderr.isatty():
+        sys.stderr.write("\r\033[K")
+    print(json.dumps(report, indent=2) if args.json else format_report(report))
+    return 1 if any(r["nan"] for r in report["cases"]) else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``twig``."""
     parser = argparse.ArgumentParser(
@@ -122,6 +145,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trace", metavar="FILE.csv", help="write a per-step trace of every character")
     p.add_argument("--plot", metavar="FILE.png", help="plot distance to caregiver and anxiety over time")
     p.set_defaults(func=cmd_run)
+
+    from twig_ecs.bench.run import CASES, SIZES
+
+    p = sub.add_parser("bench", help="time step costs by system, beside MuJoCo (docs/performance.md)")
+    p.add_argument("--cases", type=_list(str, CASES), default=CASES, metavar="LIST",
+                   help="comma-separated: " + ",".join(CASES) + " (default all)")  # fmt: skip
+    p.add_argument("--sizes", type=_list(int), default=SIZES, metavar="LIST",
+                   help="crowd and pile sizes (default " + ",".join(map(str, SIZES)) + ")")  # fmt: skip
+    p.add_argument("--steps", type=int, default=300, help="timed steps per case (default 300)")
+    p.add_argument("--warmup", type=int, default=60, help="untimed steps first (default 60)")
+    p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=cmd_bench)
 
     for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli"):
         try:

@@ -79,21 +79,25 @@ def _kernels() -> list:
             posture.control_posture, arms.control_arms, respiration.breathe, wander.steer_crowd]  # fmt: skip
 
 
+def is_cached() -> bool:
+    """Do all kernels have compiled code on disk (or is JIT off)?"""
+    if os.environ.get("NUMBA_DISABLE_JIT") == "1":
+        return True
+    for kernel in _kernels():
+        cache = getattr(kernel, "_cache", None)
+        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+        if index is None or not Path(index).exists():
+            return False
+    return True
+
+
 def ensure_compiled() -> None:
     """Print one line to stderr if the kernels have no on-disk cache yet (first run)."""
     global _checked
     if _checked:
         return
     _checked = True
-    if os.environ.get("NUMBA_DISABLE_JIT") == "1":
-        return
-    for kernel in _kernels():
-        cache = getattr(kernel, "_cache", None)
-        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-        if index is None or not Path(index).exists():
-            print(
-                "twig: compiling physics kernels, first run only (a few seconds)...",
-                file=sys.stderr,
-                flush=True,
-            )
-            return
+    if not is_cached():
+        print(
+            "twig: compiling physics kernels, first run only (a few seconds)...", file=sys.stderr, flush=True
+        )

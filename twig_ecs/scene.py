@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -347,6 +348,25 @@ class Scene:
             self.events.clear()
             esper.process(self.dt)
             self.frame += 1
+
+    def step_timed(self, times: dict[str, list[float]]) -> float:
+        """One step like :meth:`step`, timing each system; returns the step's wall time (s).
+
+        Appends each system's seconds to ``times[name]`` (for ``twig bench``).
+        """
+        clock = time.perf_counter
+        start = clock()
+        self.step(0)  # activate, install, compile: nothing when already done
+        if self.state.colliders_dirty:
+            self.state.rebuild_colliders()
+        self.events.clear()
+        esper.clear_dead_entities()  # as esper.process does before the processors
+        for system in self._installed or ():
+            t0 = clock()
+            system.process(self.dt)
+            times.setdefault(system.name, []).append(clock() - t0)
+        self.frame += 1
+        return clock() - start
 
     def run(self, seconds: float) -> None:
         """Advance by ``seconds`` of simulated time (rounded to whole steps)."""
