@@ -389,9 +389,9 @@ def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_
         relax_once(*cargs)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact
-        project_limits(pos, prev, inv_mass, flags, *cargs[13:22])
+        project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
         project_links(pos, inv_mass, flags, *cargs[8:13])
-    project_limits(pos, prev, inv_mass, flags, *cargs[13:22])  # limits have the last word
+    project_limits(pos, prev, inv_mass, flags, *cargs[13:23])  # limits have the last word
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):

@@ -56,8 +56,9 @@ class SelectBehaviorSystem(System):
                 new = behaviors.get(best)
                 if new is not None:
                     new.start(handle, goal if goal is not None and goal.behavior == best else None)
-            mind.last = dict(proposals)
-            proposals.clear()
+            # this step's proposals become `last`; last step's dict is reused for the next
+            mind.last, mind.activations = proposals, mind.last
+            mind.activations.clear()
             winner = behaviors.get(best)
             if winner is None:
                 continue

@@ -517,7 +517,7 @@ class CharacterHandle(BodyHandle):
                 merged[key] = tuple(_vector(value, f"{behavior} {key}"))
         goal = Goal(behavior, merged, on_end=on_end)
         self.mind.goals.append(goal)
-        self.scene.goal_epoch += 1  # goal-driven behaviours look at goal holders only
+        self.scene.note_goal(self.entity, self.mind)  # goal-driven behaviours look only at these
         return goal
 
     def approach(self, target, stop_distance: float = 0.6, direction=None, arms: str | None = None,

@@ -68,9 +68,9 @@ class Scene:
         self._closed = False
         self.schedule = Schedule()
         self._installed: list[System] | None = None
-        #: Bumped whenever a goal is queued (and on removals): see :meth:`goal_holders`.
-        self.goal_epoch = 0
-        self._goal_holders: tuple[tuple[int, int], list] = ((-1, -1), [])
+        # characters that were given goals (entity -> Mind), pruned when their goals run
+        # out: goal-driven behaviours look only at these (see goal_holders)
+        self._goal_holders: dict[int, Mind] = {}
         self.activate()
         from twig_ecs import systems as s
         from twig_ecs.behavior import load_builtin_behaviors
@@ -223,7 +223,7 @@ class Scene:
         self._apply_remap(remap)
         del self._names[name]
         del self._name_by_entity[entity]
-        self.goal_epoch += 1
+        self._goal_holders.pop(entity, None)
 
     def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
         """Follow a store compaction: rewrite every row index held by components."""
@@ -400,18 +400,21 @@ class Scene:
             name = self.name_of(entity) or str(entity)
         return CharacterHandle(self, entity, name)
 
+    def note_goal(self, entity: int, mind: Mind) -> None:
+        """Record that a character was given a goal (see :meth:`goal_holders`)."""
+        self._goal_holders[entity] = mind
+
     def goal_holders(self) -> list[tuple[int, Mind]]:
         """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
 
-        Cached per step and refreshed when a goal is queued; a goal that ended since
-        leaves a stale entry, which callers skip (they check ``mind.goal`` anyway).
+        Costs as many characters as hold goals, not all of them: characters join when
+        given a goal (:meth:`note_goal`) and leave here once their goals have run out.
         """
-        key = (self.frame, self.goal_epoch)
-        if self._goal_holders[0] != key:
-            self.activate()
-            holders = [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind) if mind.goals]
-            self._goal_holders = (key, holders)
-        return self._goal_holders[1]
+        holders = self._goal_holders
+        done = [e for e, mind in holders.items() if not mind.goals]
+        for e in done:
+            del holders[e]
+        return list(holders.items())
 
     def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """Finish a character's goal: mark it, drop it from the queue, report it."""

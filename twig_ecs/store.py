@@ -8,6 +8,7 @@ removing a body compacts the rows and returns an index remap so components can f
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -80,6 +81,9 @@ LIMIT_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "ref": (np.float64, (2,), 0.0),  # 0-direction = ref[0] * forward + ref[1] * up
     "arc_min": (np.float64, (), 0.0),
     "arc_max": (np.float64, (), 0.0),
+    # inward normals of the arc's two edges, (-sin min, cos min, sin max, -cos max): set
+    # with the arc, so the solver's passes need no trigonometry (see set_arc)
+    "edges": (np.float64, (4,), 0.0),
     "body": (np.int32, (), -1),
 }
 
@@ -217,6 +221,11 @@ class Block:
     def clear(self) -> None:
         """Drop every row."""
         self.keep(np.zeros(self.count, dtype=bool))
+
+    def set_arc(self, row: int, arc_min: float, arc_max: float) -> None:
+        """Set a joint limit's arc (radians) and the edge normals derived from it."""
+        self.arc_min[row], self.arc_max[row] = arc_min, arc_max
+        self.edges[row] = (-math.sin(arc_min), math.cos(arc_min), math.sin(arc_max), -math.cos(arc_max))
 
 
 def _remap(indices: np.ndarray, remap: np.ndarray) -> None:

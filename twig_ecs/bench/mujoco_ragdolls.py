@@ -86,31 +86,38 @@ def available() -> bool:
     return True
 
 
-def measure(count: int, steps: int, warmup: int, dt: float = 1.0 / 60.0) -> dict:
-    """Median and 95th-percentile ms per ``mj_step`` of ``count`` falling ragdolls."""
-    import mujoco
+class Ragdolls:
+    """A MuJoCo model of ``count`` ragdolls that steps one ``mj_step`` at a time, timed."""
 
-    t0 = time.perf_counter()
-    model = mujoco.MjModel.from_xml_string(ragdolls_mjcf(count, dt))
-    data = mujoco.MjData(model)
-    build = time.perf_counter() - t0
-    for _ in range(warmup):
-        mujoco.mj_step(model, data)
-    times = np.empty(steps)
-    for i in range(steps):
+    def __init__(self, count: int, dt: float = 1.0 / 60.0) -> None:
+        import mujoco
+
+        self._mujoco = mujoco
         t0 = time.perf_counter()
-        mujoco.mj_step(model, data)
-        times[i] = time.perf_counter() - t0
-    ms = np.sort(times) * 1000.0
-    return {
-        "median_ms": float(np.median(ms)),
-        "p95_ms": float(ms[int(0.95 * (len(ms) - 1))]),
-        "bodies": int(model.nbody - 1),
-        "geoms": int(model.ngeom - 1),
-        "dofs": int(model.nv),
-        "contacts": int(data.ncon),
-        # MuJoCo resets a diverging simulation itself and counts it as a warning
-        "unstable": int(data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number),
-        "build_s": build,
-        "version": mujoco.__version__,
-    }
+        self.model = mujoco.MjModel.from_xml_string(ragdolls_mjcf(count, dt))
+        self.build_s = time.perf_counter() - t0
+        self.data = mujoco.MjData(self.model)
+
+    def reset(self) -> None:
+        """Back to the start: the ragdolls in the air."""
+        self._mujoco.mj_resetData(self.model, self.data)
+
+    def step(self) -> float:
+        """One step; returns its wall time (s)."""
+        t0 = time.perf_counter()
+        self._mujoco.mj_step(self.model, self.data)
+        return time.perf_counter() - t0
+
+    def info(self) -> dict:
+        """Size of the model and how the simulation fares."""
+        m, d = self.model, self.data
+        return {
+            "bodies": int(m.nbody - 1),
+            "geoms": int(m.ngeom - 1),
+            "dofs": int(m.nv),
+            "contacts": int(d.ncon),
+            # MuJoCo resets a diverging simulation itself and counts it as a warning
+            "unstable": int(d.warning[self._mujoco.mjtWarning.mjWARN_BADQACC].number),
+            "build_s": self.build_s,
+            "version": self._mujoco.__version__,
+        }

@@ -30,8 +30,10 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
               say: Callable[[str], None] | None = None) -> dict:  # fmt: skip
     """Time every case; returns a JSON-ready dict (see docs/performance.md).
 
-    ``say`` gets progress lines. MuJoCo is measured once per size, and each crowd and
-    ragdoll case of that size gets its ratio ``ours / MuJoCo`` (below 1: we are faster).
+    ``say`` gets progress lines. Each crowd and ragdoll case is stepped in turn with a
+    MuJoCo model of as many ragdolls (when MuJoCo is installed), so both meet the same
+    machine load; the case gets MuJoCo's times and ``vs_mujoco`` = ours / MuJoCo (below
+    1: we are faster).
     """
     say = say or (lambda line: None)
     out: dict = {"machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
@@ -46,6 +48,10 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
             jobs.append(("crowd", size, lambda n=size: cases.crowd(n)))
         if "ragdolls" in which:
             jobs.append(("ragdolls", size, lambda n=size: cases.ragdoll_pile(n)))
+    if mujoco and not mujoco_ragdolls.available():
+        say("mujoco: not installed (pip install 'twig-ecs[bench]'): no comparison")
+        mujoco = False
+    models: dict[int, mujoco_ragdolls.Ragdolls] = {}
     results = []
     for kind, size, make in jobs:
         label = kind if size is None else f"{kind} {size}"
@@ -53,26 +59,30 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
         t0 = time.perf_counter()
         scene = make()
         build = time.perf_counter() - t0
+        other = None
+        if mujoco and size is not None:
+            if size not in models:
+                say(f"{label}: building MuJoCo's {size} ragdolls...")
+                models[size] = mujoco_ragdolls.Ragdolls(size)
+            other = models[size]
+            other.reset()
+        tick = max(1, steps // 10)
+        beside = " (and MuJoCo's, in turn)" if other else ""
+
+        def progress(i: int, label: str = label, tick: int = tick, beside: str = beside) -> None:
+            if (i + 1) % tick == 0:
+                say(f"{label}: step {i + 1}/{steps}{beside}")
+
         try:
-            tick = max(1, steps // 10)
-            r = timing.measure(scene, steps, warmup, lambda i, label=label, tick=tick: (
-                say(f"{label}: step {i + 1}/{steps}") if (i + 1) % tick == 0 else None))  # fmt: skip
+            r = timing.measure(scene, steps, warmup, progress, beside=other.step if other else None)
         finally:
             scene.close()
-        results.append({"case": label, "kind": kind, "size": size, "build_s": build} | r)
+        r = {"case": label, "kind": kind, "size": size, "build_s": build} | r
+        if other is not None:
+            r["mujoco"] = r.pop("beside") | other.info()
+            r["vs_mujoco"] = r["median_ms"] / r["mujoco"]["median_ms"]
+        results.append(r)
     out["cases"] = results
-    out["mujoco"] = {}
-    if mujoco and not mujoco_ragdolls.available():
-        say("mujoco: not installed (pip install 'twig-ecs[bench]'): no comparison")
-        mujoco = False
-    if mujoco:
-        for size in sorted({r["size"] for r in results if r["kind"] in ("crowd", "ragdolls")}):
-            say(f"mujoco {size} ragdolls: stepping {steps} steps...")
-            out["mujoco"][str(size)] = mujoco_ragdolls.measure(size, steps, warmup)
-        for r in results:
-            m = out["mujoco"].get(str(r["size"]))
-            if m is not None:
-                r["vs_mujoco"] = r["median_ms"] / m["median_ms"]
     return out
 
 

@@ -23,21 +23,35 @@ def group_of(system: str) -> str:
     return "behaviour"
 
 
-def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], None] | None = None) -> dict:
+def summary(seconds: np.ndarray) -> dict:
+    """Median and 95th percentile (ms) of step times in seconds."""
+    ms = np.sort(seconds) * 1000.0
+    return {"median_ms": float(np.median(ms)), "p95_ms": float(ms[int(0.95 * (len(ms) - 1))])}
+
+
+def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], None] | None = None,
+            beside: Callable[[], float] | None = None) -> dict:  # fmt: skip
     """Step ``warmup`` times untimed, then ``steps`` timed steps; medians in ms.
 
     Returns median and 95th-percentile step time, the median of every system, the
     per-group medians (physics, behaviour, control: the median of each step's group
-    sum), and the scene's size.
+    sum), and the scene's size. ``beside`` (another simulator's timed step, returning
+    seconds) is stepped after each of ours, so both see the same machine load - on a
+    shared machine the only fair comparison; its summary is under ``"beside"``.
     """
-    scene.step(warmup)
+    for _ in range(warmup):
+        scene.step()
+        if beside is not None:
+            beside()
     times: dict[str, list[float]] = {}
     totals = np.empty(steps)
+    other = np.empty(steps)
     for i in range(steps):
         totals[i] = scene.step_timed(times)
+        if beside is not None:
+            other[i] = beside()
         if progress is not None:
             progress(i)
-    ms = np.sort(totals) * 1000.0
     systems = {name: statistics.median(t) * 1000.0 for name, t in times.items()}
     groups = {}
     for group in ("physics", "behaviour", "control"):
@@ -45,15 +59,17 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
         groups[group] = float(np.median(np.sum(members, axis=0)) * 1000.0) if members else 0.0
     state = scene.state
     positions = state.nodes.pos[: state.nodes.count]
-    return {
-        "median_ms": float(np.median(ms)),
-        "p95_ms": float(ms[int(0.95 * (len(ms) - 1))]),
-        "groups_ms": groups,
-        "systems_ms": systems,
-        "characters": int(state.characters.count),
-        "bodies": int(state.bodies.count),
-        "nodes": int(state.nodes.count),
-        "colliders": int(state.colliders.count),
-        "candidate_pairs": int(state.n_pairs),
-        "nan": bool(np.isnan(positions).any()),
-    }
+    return (
+        summary(totals)
+        | {
+            "groups_ms": groups,
+            "systems_ms": systems,
+            "characters": int(state.characters.count),
+            "bodies": int(state.bodies.count),
+            "nodes": int(state.nodes.count),
+            "colliders": int(state.colliders.count),
+            "candidate_pairs": int(state.n_pairs),
+            "nan": bool(np.isnan(positions).any()),
+        }
+        | ({"beside": summary(other)} if beside is not None else {})
+    )
