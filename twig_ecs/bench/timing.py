@@ -29,6 +29,11 @@ def summary(seconds: np.ndarray) -> dict:
     return {"median_ms": float(np.median(ms)), "p95_ms": float(ms[int(0.95 * (len(ms) - 1))])}
 
 
+#: Steps each simulator takes in a row when two are compared: long enough that caches
+#: are warm again after the other one ran, short enough that both meet the same load.
+BLOCK = 10
+
+
 def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], None] | None = None,
             beside: Callable[[], float] | None = None) -> dict:  # fmt: skip
     """Step ``warmup`` times untimed, then ``steps`` timed steps; medians in ms.
@@ -36,8 +41,9 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
     Returns median and 95th-percentile step time, the median of every system, the
     per-group medians (physics, behaviour, control: the median of each step's group
     sum), and the scene's size. ``beside`` (another simulator's timed step, returning
-    seconds) is stepped after each of ours, so both see the same machine load - on a
-    shared machine the only fair comparison; its summary is under ``"beside"``.
+    seconds) takes turns with ours, ``BLOCK`` steps each, so both meet the same machine
+    load - on a shared machine the only fair comparison; its summary is under
+    ``"beside"``.
     """
     for _ in range(warmup):
         scene.step()
@@ -46,12 +52,15 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
     times: dict[str, list[float]] = {}
     totals = np.empty(steps)
     other = np.empty(steps)
-    for i in range(steps):
-        totals[i] = scene.step_timed(times)
+    for start in range(0, steps, BLOCK):
+        block = range(start, min(steps, start + BLOCK))
+        for i in block:
+            totals[i] = scene.step_timed(times)
+            if progress is not None:
+                progress(i)
         if beside is not None:
-            other[i] = beside()
-        if progress is not None:
-            progress(i)
+            for i in block:
+                other[i] = beside()
     systems = {name: statistics.median(t) * 1000.0 for name, t in times.items()}
     groups = {}
     for group in ("physics", "behaviour", "control"):
