@@ -159,8 +159,8 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out):
 
 
 @njit(cache=True)
-def collider_pairs(pos, col_a, col_b, col_r, col_body, col_local, col_mask, col_ignore, n_col, n_bodies,
-                   margin, lo, hi, body_lo, body_hi, body_start, order, bpairs, n_bpairs, pairs):  # fmt: skip
+def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, body_hi, body_start, order,
+                   bpairs, n_bpairs, pairs):  # fmt: skip
     """Level two of the broad phase: collider pairs whose padded boxes overlap.
 
     Looks only inside each body (its non-adjacent links) and between the body pairs
@@ -458,8 +458,8 @@ class CollideSystem(System):
                 self._array("bpairs", (n_bp, 2), np.int64)
             else:
                 break
-        args = (n.pos, col.a, col.b, col.radius, col.body, col.local, col.mask, col.ignore, col.count, nb,
-                BROAD_MARGIN, lo, hi, body_lo, body_hi, body_start, order, bpairs, n_bp)  # fmt: skip
+        args = (col.local, col.mask, col.ignore, nb, lo, hi, body_lo, body_hi, body_start, order, bpairs,
+                n_bp)  # fmt: skip
         n_pairs = collider_pairs(*args, s.pairs)
         if n_pairs > len(s.pairs):
             s.pairs = np.zeros((2 * n_pairs, 2), dtype=np.int32)
