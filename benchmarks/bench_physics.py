@@ -10,26 +10,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import statistics
 import time
 
-import numpy as np
-
 from twig_ecs import Scene
-
-
-def ragdoll_pile(count: int) -> Scene:
-    """``count`` full-size humanoid ragdolls in a square grid, dropped from 0.5-2 m."""
-    scene = Scene.load("empty")
-    side = math.ceil(math.sqrt(count))
-    rng = np.random.default_rng(1)
-    for k in range(count):
-        x, z = (k % side) * 1.2, (k // side) * 1.2
-        body = scene.spawn("humanoid", name=f"r{k}", position=(x, float(rng.uniform(0.5, 2.0)), z),
-                           facing=float(rng.uniform(0, 360)))  # fmt: skip
-        body.set_node_velocity("head", tuple(rng.normal(0.0, 1.0, 3)))
-    return scene
+from twig_ecs.bench.cases import ragdoll_pile
 
 
 def measure(scene: Scene, steps: int, warmup: int) -> dict:

@@ -4,9 +4,18 @@ Hot numbers live in the :class:`~twig_ecs.store.PhysicsState` arrays; components
 which rows belong to which entity and carry authoring parameters.
 """
 
-from twig_ecs.components.attention import Attachment, Feisty, Memory, Perception, Playful, Rider, Watchful
+from twig_ecs.components.attention import (
+    Attachment,
+    Feisty,
+    Memory,
+    Perception,
+    Playful,
+    Rider,
+    Wander,
+    Watchful,
+)
 from twig_ecs.components.character import Character
 from twig_ecs.components.physics import Body, GrabJoint, Link, Name, Node, PainSensor
 
 __all__ = ["Attachment", "Body", "Character", "Feisty", "GrabJoint", "Link", "Memory", "Name", "Node",
-           "PainSensor", "Perception", "Playful", "Rider", "Watchful"]  # fmt: skip
+           "PainSensor", "Perception", "Playful", "Rider", "Wander", "Watchful"]  # fmt: skip

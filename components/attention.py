@@ -81,3 +81,21 @@ class Watchful:
     """A caregiver: keeps its eyes on its charges, the one furthest away first."""
 
     charges: list[str] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class Wander:
+    """Roams: picks a random point in a square and walks there round others, then another.
+
+    Targets are drawn from the square of half-size ``radius`` (m) round ``centre``
+    ([x, z]); a target counts as reached within ``arrive`` m, and one not got 10 cm
+    closer to in ``patience`` s is given up for a new one.
+    """
+
+    radius: float = 10.0
+    centre: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    speed: float = 1.2  # m/s
+    arrive: float = 0.6  # m
+    patience: float = 4.0  # s
+    activation: float = 0.3  # above idle, below commanded goals
+    targets: int = 0  # how many targets it has picked

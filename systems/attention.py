@@ -17,7 +17,8 @@ import math
 import esper
 import numpy as np
 
-from twig_ecs.components import Attachment, Character, Memory, Perception
+from twig_ecs.components import Attachment, Body, Character, Memory, Perception
+from twig_ecs.kernelmath import HEAD
 from twig_ecs.system import System
 
 FOCUS_BONUS = 0.15  # salience bonus of the current focus
@@ -27,6 +28,38 @@ class AttentionSystem(System):
     """Updates each perceiving character's memory and focus of attention."""
 
     name = "attention"
+
+    def setup(self) -> None:
+        """Caches of names, body rows and head nodes, refreshed when the store changes."""
+        self._key: tuple[int, int] = (-1, -1)
+        self._rows: list[tuple[str, int]] = []
+        self._head_nodes: dict[str, int] = {}
+
+    def _refresh(self) -> None:
+        state, scene = self.scene.state, self.scene
+        key = (state.version, len(scene._names))  # bodies spawned or removed
+        if key == self._key:
+            return
+        bodies = state.bodies
+        row_of = {int(bodies.entity[b]): b for b in range(bodies.count)}
+        self._rows = [(name, row_of[scene._names[name]]) for name in scene.entity_names
+                      if scene._names[name] in row_of]  # fmt: skip
+        self._head_nodes = {}
+        for name in scene.entity_names:
+            body = esper.try_component(scene._names[name], Body)
+            if body is not None and "head" in body.node_names:
+                self._head_nodes[name] = body.node_index("head")
+        self._key = key
+
+    def _body_rows(self) -> list[tuple[str, int]]:
+        """(name, body row) of every named entity with a body, in spawn order."""
+        self._refresh()
+        return self._rows
+
+    def _heads(self) -> dict[str, int]:
+        """Head node row of every named entity that has a head."""
+        self._refresh()
+        return self._head_nodes
 
     def process(self, dt: float) -> None:
         """Perceive, fade, appraise and pick a focus for every perceiving character."""
@@ -51,18 +84,17 @@ class AttentionSystem(System):
         )
         mean_pos /= counts[:, None]
         speed = np.linalg.norm(mean_vel / counts[:, None], axis=1) / dt
-        row_of = {int(bodies.entity[b]): b for b in range(bodies.count)}
         centres: dict[str, np.ndarray] = {}
         speeds: dict[str, float] = {}
-        for name in scene.entity_names:
-            b = row_of.get(scene._names[name])
-            if b is not None:
-                centres[name], speeds[name] = mean_pos[b], float(speed[b])
+        for name, b in self._body_rows():
+            centres[name], speeds[name] = mean_pos[b], float(speed[b])
         fade = 0.5 ** (dt / 1.0)
-        for entity, (_, perception, memory) in perceivers:
+        ch = state.characters
+        for entity, (character, perception, memory) in perceivers:
             me = scene.character_handle(entity)
-            head = me.node("head")
-            face = me.head_direction
+            row = character.index
+            head = nodes.pos[ch.nodes[row, HEAD]].copy()
+            face = ch.head_dir[row].copy()
             cos_half = math.cos(math.radians(perception.view_angle / 2))
             decay = fade ** (1.0 / perception.memory_half_life)
             anxiety = 0.0
@@ -73,7 +105,7 @@ class AttentionSystem(System):
                 if name == me.name:
                     continue
                 off = where - head
-                dist = float(np.linalg.norm(off))
+                dist = math.sqrt(off.dot(off))  # = np.linalg.norm(off), without its checks
                 seen = dist < perception.view_distance and (dist < 0.5 or off @ face / dist >= cos_half)
                 if seen:
                     memory.strength[name] = 1.0
@@ -96,6 +128,9 @@ class AttentionSystem(System):
             memory.salience = salience
             memory.focus = max(salience, key=salience.__getitem__) if salience else None
             if memory.focus is not None:
-                me.look_at(
-                    memory.focus, node="head" if "head" in scene.entity(memory.focus).node_names else None
-                )
+                head_node = self._heads().get(memory.focus)
+                if head_node is not None:  # a character: its head, as look_at(name, node="head")
+                    ch.gaze_node[row] = head_node
+                    ch.gaze_mode[row] = 2
+                else:
+                    me.look_at(memory.focus)

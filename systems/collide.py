@@ -1,7 +1,10 @@
 """collide: capsule/sphere contacts as constraints, with a grid broad phase (SPEC 2).
 
-Reads node ``pos``/``prev``/``inv_mass`` and the collider table. Once per step a uniform
-grid (spatial hash) finds candidate pairs whose padded boxes overlap; then each
+Reads node ``pos``/``prev``/``inv_mass`` and the collider table. Once per step a
+two-level broad phase finds candidate pairs whose padded boxes overlap: a uniform grid
+(spatial hash) over the boxes of whole bodies finds bodies that may touch, and only
+their colliders, and those within one body, are compared (linear in the scene's size,
+and its arrays small enough to stay in cache); then each
 relaxation round separates every penetrating pair along the contact normal and
 re-projects links and the ground, so contacts and rigid links settle together.
 Writes node ``pos`` and IN_CONTACT flags, and the tactile record of each collider
@@ -24,86 +27,115 @@ from twig_ecs.systems.constrain import constraint_args, nudge, project_limits, p
 BROAD_MARGIN = 0.05
 #: Closing passes of only joint limits and links after the contact rounds.
 FINAL_PASSES = 4
-#: Broad-phase grid cell edge (m): a limb or two long (measured: 0.75 beat 0.5 and 1.0).
-CELL_SIZE = 0.75
+#: Broad-phase grid cell edge (m), for the boxes of whole bodies: about a body's width
+#: and a half, so a standing body sits in a few cells and a lying one in a row of them.
+CELL_SIZE = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _cell_hash(ix, iy, iz, mask):
     h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)
     return h & mask
 
 
-@njit(cache=True)
-def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, col_ignore, n_col, margin, cell,
-                pairs):  # fmt: skip
-    """Candidate collider pairs whose padded boxes overlap, via a spatial hash grid.
+@njit(cache=True, inline="always")
+def _boxes_overlap(lo, hi, i, lo2, hi2, j):
+    """Does box i of (lo, hi) overlap box j of (lo2, hi2)?"""
+    return (lo[i, 0] <= hi2[j, 0] and lo2[j, 0] <= hi[i, 0] and lo[i, 1] <= hi2[j, 1]
+            and lo2[j, 1] <= hi[i, 1] and lo[i, 2] <= hi2[j, 2] and lo2[j, 2] <= hi[i, 2])  # fmt: skip
 
-    Writes up to ``len(pairs)`` pairs and returns how many there are in all; when that
-    exceeds the capacity the caller grows ``pairs`` and calls again.
+
+@njit(cache=True)
+def collider_boxes(pos, col_a, col_b, col_r, col_body, n_col, n_bodies, margin, lo, hi, body_lo, body_hi,
+                   body_start, order):  # fmt: skip
+    """Level zero of the broad phase: every collider's padded box, and each body's.
+
+    Also groups the colliders by body: ``order[body_start[b]:body_start[b + 1]]`` are
+    body b's, in collider order. A body without colliders gets an empty box (lo > hi).
     """
-    lo = np.empty((n_col, 3), dtype=np.float64)
-    hi = np.empty((n_col, 3), dtype=np.float64)
-    cl = np.empty((n_col, 3), dtype=np.int64)
-    ch = np.empty((n_col, 3), dtype=np.int64)
-    n_entries = 0
+    for b in range(n_bodies):
+        for k in range(3):
+            body_lo[b, k] = np.inf
+            body_hi[b, k] = -np.inf
+        body_start[b + 1] = 0
+    body_start[0] = 0
     for c in range(n_col):
         a = col_a[c]
         b = col_b[c]
+        body = col_body[c]
         pad = col_r[c] + margin
         for k in range(3):
             lo[c, k] = min(pos[a, k], pos[b, k]) - pad
             hi[c, k] = max(pos[a, k], pos[b, k]) + pad
+            body_lo[body, k] = min(body_lo[body, k], lo[c, k])
+            body_hi[body, k] = max(body_hi[body, k], hi[c, k])
+        body_start[body + 1] += 1
+    for b in range(n_bodies):
+        body_start[b + 1] += body_start[b]
+    for c in range(n_col):  # place each, moving its body's start on; then shift back
+        body = col_body[c]
+        order[body_start[body]] = c
+        body_start[body] += 1
+    for b in range(n_bodies, 0, -1):
+        body_start[b] = body_start[b - 1]
+    body_start[0] = 0
+
+
+@njit(cache=True)
+def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out):
+    """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid.
+
+    ``cl``/``ch`` (n x 3), ``start``, ``entry_box``, ``entry_cell`` are scratch arrays
+    (``start`` a power of two plus one long; the entries at least as many as box-cells).
+    Writes up to ``len(out)`` pairs (i < j) and returns how many there are in all, or
+    -1 when the entry arrays are too short; the caller grows and calls again.
+    """
+    n_entries = 0
+    for c in range(n):
+        if lo[c, 0] > hi[c, 0]:  # an empty box: no cells
+            for k in range(3):
+                cl[c, k] = 0
+                ch[c, k] = -1
+            continue
+        for k in range(3):
             cl[c, k] = int(math.floor(lo[c, k] / cell))
             ch[c, k] = int(math.floor(hi[c, k] / cell))
         n_entries += (ch[c, 0] - cl[c, 0] + 1) * (ch[c, 1] - cl[c, 1] + 1) * (ch[c, 2] - cl[c, 2] + 1)
-    size = 16
-    while size < 2 * n_entries:
-        size *= 2
+    if n_entries > len(entry_box):
+        return -1
+    size = len(start) - 1
     hmask = size - 1
-    start = np.zeros(size + 1, dtype=np.int64)
-    for c in range(n_col):
+    start[:] = 0
+    for c in range(n):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
                     start[_cell_hash(ix, iy, iz, hmask) + 1] += 1
     for h in range(size):
         start[h + 1] += start[h]
-    fill = start[:-1].copy()
-    entry_col = np.empty(n_entries, dtype=np.int64)
-    entry_cell = np.empty((n_entries, 3), dtype=np.int64)
-    for c in range(n_col):
+    # fill, moving each bucket's start forward; then shift back (no second array)
+    for c in range(n):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
                     h = _cell_hash(ix, iy, iz, hmask)
-                    e = fill[h]
-                    entry_col[e] = c
+                    e = start[h]
+                    entry_box[e] = c
                     entry_cell[e, 0] = ix
                     entry_cell[e, 1] = iy
                     entry_cell[e, 2] = iz
-                    fill[h] += 1
-    n_pairs = 0
-    cap = pairs.shape[0]
+                    start[h] += 1
+    for h in range(size, 0, -1):
+        start[h] = start[h - 1]
+    start[0] = 0
+    n_out = 0
+    cap = out.shape[0]
     for h in range(size):
         for e1 in range(start[h], start[h + 1]):
-            i = entry_col[e1]
+            i = entry_box[e1]
             for e2 in range(e1 + 1, start[h + 1]):
-                j = entry_col[e2]
-                if i == j:
-                    continue
-                # joints within one body first: the cheapest test, and most pairs in a crowd
-                if col_body[i] == col_body[j] and (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
-                    continue
-                if col_ignore[i] == col_body[j] or col_ignore[j] == col_body[i]:
-                    continue
-                # boxes overlap?
-                overlap = True
-                for k in range(3):
-                    if lo[i, k] > hi[j, k] or lo[j, k] > hi[i, k]:
-                        overlap = False
-                        break
-                if not overlap:
+                j = entry_box[e2]
+                if i == j or not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
                 # count each pair once: in the cell holding the low corner of the overlap
                 # (both entries must be that very cell, not another one sharing the bucket)
@@ -119,6 +151,51 @@ def broad_phase(pos, col_a, col_b, col_r, col_body, col_local, col_mask, col_ign
                     and entry_cell[e2, 2] == oz
                 ):
                     continue  # fmt: skip
+                if n_out < cap:
+                    out[n_out, 0] = min(i, j)
+                    out[n_out, 1] = max(i, j)
+                n_out += 1
+    return n_out
+
+
+@njit(cache=True)
+def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, body_hi, body_start, order,
+                   bpairs, n_bpairs, pairs):  # fmt: skip
+    """Level two of the broad phase: collider pairs whose padded boxes overlap.
+
+    Looks only inside each body (its non-adjacent links) and between the body pairs
+    ``bpairs[:n_bpairs]`` found by :func:`body_pairs`, and there only at colliders
+    reaching into the other body's box. ``lo``/``hi`` hold the collider boxes,
+    ``order`` the colliders grouped by body from ``body_start``. Writes up to
+    ``len(pairs)`` pairs and returns how many there are in all.
+    """
+    n_pairs = 0
+    cap = pairs.shape[0]
+    for b in range(n_bodies):  # within one body: masks say which pairs are joints
+        for e1 in range(body_start[b], body_start[b + 1]):
+            i = order[e1]
+            if col_mask[i] == np.uint64(0xFFFFFFFFFFFFFFFF):
+                continue  # collides with nothing of its own body
+            for e2 in range(e1 + 1, body_start[b + 1]):
+                j = order[e2]
+                if (col_mask[i] >> np.uint64(col_local[j])) & np.uint64(1):
+                    continue
+                if _boxes_overlap(lo, hi, i, lo, hi, j):
+                    if n_pairs < cap:
+                        pairs[n_pairs, 0] = min(i, j)
+                        pairs[n_pairs, 1] = max(i, j)
+                    n_pairs += 1
+    for k in range(n_bpairs):
+        p = bpairs[k, 0]
+        q = bpairs[k, 1]
+        for e1 in range(body_start[p], body_start[p + 1]):
+            i = order[e1]
+            if col_ignore[i] == q or not _boxes_overlap(lo, hi, i, body_lo, body_hi, q):
+                continue
+            for e2 in range(body_start[q], body_start[q + 1]):
+                j = order[e2]
+                if col_ignore[j] == p or not _boxes_overlap(lo, hi, i, lo, hi, j):
+                    continue
                 if n_pairs < cap:
                     pairs[n_pairs, 0] = min(i, j)
                     pairs[n_pairs, 1] = max(i, j)
@@ -320,9 +397,9 @@ def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_
         relax_once(*cargs)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact
-        project_limits(pos, prev, inv_mass, flags, *cargs[13:22])
+        project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
         project_links(pos, inv_mass, flags, *cargs[8:13])
-    project_limits(pos, prev, inv_mass, flags, *cargs[13:22])  # limits have the last word
+    project_limits(pos, prev, inv_mass, flags, *cargs[13:23])  # limits have the last word
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):
@@ -349,30 +426,62 @@ class CollideSystem(System):
 
     name = "collide"
 
+    def setup(self) -> None:
+        """Broad-phase scratch arrays, kept between steps and grown as the scene grows."""
+        self._scratch: dict[str, np.ndarray] = {}
+
+    def _array(self, key: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        """A reusable scratch array with at least ``shape[0]`` rows (doubling to grow)."""
+        a = self._scratch.get(key)
+        if a is None or a.shape[0] < shape[0]:
+            a = np.empty((max(16, 2 * shape[0]), *shape[1:]), dtype=dtype)
+            self._scratch[key] = a
+        return a
+
+    def broad_phase(self) -> int:
+        """Candidate collider pairs into ``state.pairs``: boxes, then body pairs, then colliders."""
+        s = self.scene.state
+        n, col = s.nodes, s.colliders
+        nb = s.bodies.count
+        lo, hi = self._array("lo", (col.count, 3), np.float64), self._array("hi", (col.count, 3), np.float64)
+        body_lo, body_hi = self._array("blo", (nb, 3), np.float64), self._array("bhi", (nb, 3), np.float64)
+        body_start, order = (
+            self._array("bstart", (nb + 1,), np.int64),
+            self._array("order", (col.count,), np.int64),
+        )
+        collider_boxes(n.pos, col.a, col.b, col.radius, col.body, col.count, nb, BROAD_MARGIN, lo, hi,
+                       body_lo, body_hi, body_start, order)  # fmt: skip
+        cl, ch = self._array("cl", (nb, 3), np.int64), self._array("ch", (nb, 3), np.int64)
+        entries = 8 * nb
+        while True:
+            entry_box = self._array("ebox", (entries,), np.int64)
+            entry_cell = self._array("ecell", (entries, 3), np.int64)
+            size = 1 << max(4, int(2 * len(entry_box) - 1).bit_length())  # >= 2 x entries, a power of 2
+            start = self._array("start", (size + 1,), np.int64)[: size + 1]
+            bpairs = self._array("bpairs", (4 * nb, 2), np.int64)
+            n_bp = body_pairs(body_lo, body_hi, nb, CELL_SIZE, cl, ch, start, entry_box, entry_cell, bpairs)
+            if n_bp < 0:
+                entries = 2 * len(entry_box)
+            elif n_bp > len(bpairs):
+                self._array("bpairs", (n_bp, 2), np.int64)
+            else:
+                break
+        args = (col.local, col.mask, col.ignore, nb, lo, hi, body_lo, body_hi, body_start, order, bpairs,
+                n_bp)  # fmt: skip
+        n_pairs = collider_pairs(*args, s.pairs)
+        if n_pairs > len(s.pairs):
+            s.pairs = np.zeros((2 * n_pairs, 2), dtype=np.int32)
+            n_pairs = collider_pairs(*args, s.pairs)
+        return n_pairs
+
     def process(self, dt: float) -> None:
         """Broad phase once, then ``settings.iterations`` contact relaxation rounds."""
         s = self.scene.state
-        n, col = s.nodes, s.colliders
+        col = s.colliders
         if col.count < 2:
             s.stats[0] = 0.0
             return
-        args = (
-            n.pos,
-            col.a,
-            col.b,
-            col.radius,
-            col.body,
-            col.local,
-            col.mask,
-            col.ignore,
-            col.count,
-            BROAD_MARGIN,
-            CELL_SIZE,
-        )
-        n_pairs = broad_phase(*args, s.pairs)
-        if n_pairs > len(s.pairs):
-            s.pairs = np.zeros((2 * n_pairs, 2), dtype=np.int32)
-            n_pairs = broad_phase(*args, s.pairs)
+        n_pairs = self.broad_phase()
         s.stats[0] = solve_collisions(
             col.a,
             col.b,

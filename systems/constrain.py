@@ -76,6 +76,8 @@ def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
     Ropes are only pulled back when longer than their length.
     """
     for k in range(count):
+        if lflags[k] & LINK_OFF:
+            continue  # (first: a switched-off brace costs no square root)
         i = la[k]
         j = lb[k]
         wi = node_weight(inv_mass, flags, i)
@@ -87,7 +89,7 @@ def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
         oy = pos[i, 1] - pos[j, 1]
         oz = pos[i, 2] - pos[j, 2]
         length = math.sqrt(ox * ox + oy * oy + oz * oz)
-        if length < 1e-12 or lflags[k] & LINK_OFF or (lflags[k] & LINK_ROPE and length <= rest[k]):
+        if length < 1e-12 or (lflags[k] & LINK_ROPE and length <= rest[k]):
             continue
         f = (length - rest[k]) / (length * w)
         pos[i, 0] -= wi * f * ox
@@ -110,7 +112,7 @@ def _angle_gap(a, b):
 
 
 @njit(cache=True)
-def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
+def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, edges,
                    n_limits):  # fmt: skip
     """One pass over hinge limits (knees, elbows).
 
@@ -166,10 +168,10 @@ def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref,
         # so nearly straight limbs settle instead of flipping about.
         pr = px * rx + py * ry + pz * rz
         ps = px * sx + py * sy + pz * sz
-        n0r = -math.sin(arc_min[k])  # inward normals of the two edges
-        n0s = math.cos(arc_min[k])
-        n1r = math.sin(arc_max[k])
-        n1s = -math.cos(arc_max[k])
+        n0r = edges[k, 0]  # inward normals of the two edges
+        n0s = edges[k, 1]
+        n1r = edges[k, 2]
+        n1s = edges[k, 3]
         in0 = pr * n0r + ps * n0s
         in1 = pr * n1r + ps * n1s
         if in0 >= 0.0 and in1 >= 0.0:
@@ -266,11 +268,11 @@ def project_ground(pos, radius, flags, lock_pos, count):
 @njit(cache=True)
 def relax_once(pos, prev, inv_mass, mass, flags, radius, lock_pos, n_nodes,
                la, lb, rest, lflags, n_links,
-               root, mid, tip, frame, side, ref, arc_min, arc_max, n_limits,
+               root, mid, tip, frame, side, ref, arc_min, arc_max, edges, n_limits,
                axle_a, axle_b, axle_radius, axle_height):
     """One relaxation pass: limits, axles, the ground, then links (and grab joints)."""
     # links last: they are the constraints we most want exact after a pass
-    project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max,
+    project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, edges,
                    n_limits)
     project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
     project_ground(pos, radius, flags, lock_pos, n_nodes)
@@ -290,7 +292,7 @@ def constraint_args(state) -> tuple:
     return (n.pos, n.prev, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
             lk.a, lk.b, lk.rest, lk.flags, lk.count,
             lim.root, lim.mid, lim.tip, lim.frame, lim.side, lim.ref, lim.arc_min, lim.arc_max,
-            lim.count,
+            lim.edges, lim.count,
             n.axle_a, n.axle_b, n.axle_radius, n.axle_height)
 # fmt: on
 

@@ -32,34 +32,48 @@ class SelectBehaviorSystem(System):
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
-        for entity, (_, mind) in esper.get_components(Character, Mind):
+        batches: dict[str, tuple[list[int], list[int]]] = {}
+        for entity, (character, mind) in esper.get_components(Character, Mind):
             proposals = mind.activations
             proposals.setdefault("idle", IDLE)
-            current = mind.winner if mind.winner in proposals else None
+            was = mind.winner
             best = max(proposals, key=proposals.__getitem__)
-            if current is not None and best != current:
+            if best != was and was in proposals:
                 held = now - mind.since < MIN_DWELL
-                margin = proposals[best] - (proposals[current] + STICKINESS)
+                margin = proposals[best] - (proposals[was] + STICKINESS)
                 if margin <= 0.0 or (held and margin < URGENT):
-                    best = current
-            handle = scene.character_handle(entity)
-            goal = mind.goal
-            if best != mind.winner:
-                old = behaviors.get(mind.winner)
+                    best = was
+            goals = mind.goals
+            goal = goals[0] if goals else None
+            handle = None  # made only when needed: most steps most characters just carry on
+            if best != was:
+                handle = scene.character_handle(entity)
+                old = behaviors.get(was)
                 if old is not None:
-                    old.stop(handle, goal if goal is not None and goal.behavior == mind.winner else None)
-                scene.emit(BehaviorChanged(entity, mind.winner, best))
+                    old.stop(handle, goal if goal is not None and goal.behavior == was else None)
+                scene.emit(BehaviorChanged(entity, was, best))
                 mind.winner, mind.since = best, now
                 mind.switches += 1
                 new = behaviors.get(best)
                 if new is not None:
                     new.start(handle, goal if goal is not None and goal.behavior == best else None)
-            mind.last = dict(proposals)
-            proposals.clear()
+            # this step's proposals become `last`; last step's dict is reused for the next
+            mind.last, mind.activations = proposals, mind.last
+            mind.activations.clear()
             winner = behaviors.get(best)
             if winner is None:
                 continue
             own_goal = goal if goal is not None and goal.behavior == best else None
             if own_goal is not None and own_goal.status == "pending":
                 own_goal.status, own_goal.started = "active", now
-            winner.act(handle, mind, own_goal, dt)
+            if winner.batch:
+                batch = batches.get(best)
+                if batch is None:
+                    batch = batches[best] = ([], [])
+                batch[0].append(character.index)
+                batch[1].append(entity)
+                continue
+            winner.act(handle or scene.character_handle(entity), mind, own_goal, dt)
+        # batch behaviours act once for all the characters they won, after the others
+        for name, (rows, entities) in batches.items():
+            behaviors[name].act_batch(rows, entities, dt)

@@ -48,6 +48,12 @@ class Withdraw(Behavior):
             self.source[event.body] = event.source_body
         super().process(dt)
 
+    def candidates(self) -> list[tuple[int, Mind]]:
+        """Only the characters whose retreat is still running (not every character)."""
+        now = self.scene.time
+        return [(e, esper.component_for_entity(e, Mind)) for e, t in self.until.items()
+                if t > now and esper.entity_exists(e)]  # fmt: skip
+
     def activation(self, character, mind: Mind, goal) -> float:
         """High while a retreat is running."""
         return ACTIVATION if self.until.get(character.entity, -1.0) > self.scene.time else 0.0

@@ -122,22 +122,36 @@ class Behavior(System):
     #: A reflex (pain withdrawal) runs even for a scripted, non-autonomous character.
     reflex: ClassVar[bool] = False
 
+    #: A batch behaviour acts for all the characters it wins in one call,
+    #: :meth:`act_batch`, over arrays (crowds); others act per character.
+    batch: ClassVar[bool] = False
+
+    def candidates(self) -> list[tuple[int, Mind]]:
+        """The (entity, mind) pairs this behaviour may propose for (a superset is fine).
+
+        Goal-driven: characters holding goals; with a component: characters having it;
+        otherwise every character. Narrowing this keeps a crowd from costing each
+        behaviour a Python call per character per step.
+        """
+        if self.goal_driven:
+            return self.scene.goal_holders()
+        if self.component is not None:
+            return [(e, mind) for e, (_, mind, _) in esper.get_components(Character, Mind, self.component)]
+        return [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind)]
+
     def process(self, dt: float) -> None:
         """Propose this behaviour's activation for every character."""
         scene = self.scene
-        for entity, (_, mind) in esper.get_components(Character, Mind):
-            if self.component is not None and not esper.has_component(entity, self.component):
-                continue
+        for entity, mind in self.candidates():
             if not (self.goal_driven or self.reflex or mind.autonomous):
                 continue  # a scripted character does only what it is told
-            handle = scene.character_handle(entity)
             goal = mind.goal
             if self.goal_driven:
                 if goal is None or goal.behavior != self.name:
                     continue
-                value = self.activation(handle, mind, goal)
+                value = self.activation(scene.character_handle(entity), mind, goal)
             else:
-                value = self.activation(handle, mind, None)
+                value = self.activation(scene.character_handle(entity), mind, None)
             if value > 0.0:
                 mind.activations[self.name] = value
 
@@ -150,6 +164,17 @@ class Behavior(System):
 
     def act(self, character: CharacterHandle, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Write the motor vector: walk, arms, gaze, posture targets."""
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float) -> None:
+        """Act for every character this behaviour won this step (a batch behaviour).
+
+        ``rows`` are their rows in the store's character table, ``entities`` their
+        entities. The default calls :meth:`act` for each.
+        """
+        for entity in entities:
+            mind = esper.component_for_entity(entity, Mind)
+            goal = mind.goal if mind.goal is not None and mind.goal.behavior == self.name else None
+            self.act(self.scene.character_handle(entity), mind, goal, dt)
 
     def stop(self, character: CharacterHandle, goal: Goal | None) -> None:
         """Called when this behaviour stops winning (tidy up: release grabs, unlock)."""
@@ -189,6 +214,7 @@ def load_builtin_behaviors() -> dict[str, type[Behavior]]:
         play,
         posture_goals,
         ride,
+        wander,
         watch,
         withdraw,
     )

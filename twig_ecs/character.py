@@ -518,6 +518,7 @@ class CharacterHandle(BodyHandle):
                 merged[key] = tuple(_vector(value, f"{behavior} {key}"))
         goal = Goal(behavior, merged, on_end=on_end)
         self.mind.goals.append(goal)
+        self.scene.note_goal(self.entity, self.mind)  # goal-driven behaviours look only at these
         return goal
 
     def approach(self, target, stop_distance: float = 0.6, direction=None, arms: str | None = None,

@@ -21,6 +21,26 @@ def _add_scene_args(p: argparse.ArgumentParser, scene_default: str | None = None
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+    p.add_argument("--count", type=str, default=None, metavar="N",
+                   help="the scene's 'count' parameter (e.g. characters in the crowd)")  # fmt: skip
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
+                   help="set a parameter the scene declares (repeatable)")  # fmt: skip
+    p.set_defaults(scene_parameters=True)
+
+
+def _param(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got '{text}'")
+    return name.strip(), value.strip()
+
+
+def scene_parameters(args: argparse.Namespace) -> dict[str, str]:
+    """The scene parameters given on the command line (``--param k=v``, ``--count N``)."""
+    out = dict(getattr(args, "param", []) or [])
+    if getattr(args, "count", None) is not None:
+        out["count"] = args.count
+    return out
 
 
 def _positive_seconds(text: str) -> float:
@@ -66,7 +86,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
                              progress=args.report != "json" and sys.stderr.isatty(), trace=args.trace,
-                             plot=args.plot)  # fmt: skip  # fmt: skip
+                             plot=args.plot, parameters=args.parameters)  # fmt: skip
     if args.report == "json":
         print(json.dumps(report, indent=2))
     else:
@@ -76,6 +96,29 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"max penetration {report['max_penetration_m'] * 100:.2f} cm, "
               f"nan: {str(report['nan']).lower()}, state {report['state_hash']}")  # fmt: skip
     return 1 if report["nan"] else 0
+
+
+def _list(kind, choices=None):
+    def parse(text: str):
+        items = [kind(x) for x in text.split(",") if x.strip()]
+        if choices is not None and not set(items) <= set(choices):
+            raise argparse.ArgumentTypeError(f"choose from {', '.join(choices)}")
+        return tuple(items)
+
+    return parse
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    """Time the schoolyard, crowds and ragdoll piles (and MuJoCo's ragdolls beside them)."""
+    from twig_ecs.bench.run import progress_printer, run_bench
+    from twig_ecs.bench.table import format_report
+
+    say = progress_printer()
+    report = run_bench(args.cases, args.sizes, args.steps, args.warmup, mujoco=not args.no_mujoco, say=say)
+    if sys.stderr.isatty():
+        sys.stderr.write("\r\033[K")
+    print(json.dumps(report, indent=2) if args.json else format_report(report))
+    return 1 if any(r["nan"] for r in report["cases"]) else 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -103,6 +146,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="FILE.png", help="plot distance to caregiver and anxiety over time")
     p.set_defaults(func=cmd_run)
 
+    from twig_ecs.bench.run import CASES, SIZES
+
+    p = sub.add_parser("bench", help="time step costs by system, beside MuJoCo (docs/performance.md)")
+    p.add_argument("--cases", type=_list(str, CASES), default=CASES, metavar="LIST",
+                   help="comma-separated: " + ",".join(CASES) + " (default all)")  # fmt: skip
+    p.add_argument("--sizes", type=_list(int), default=SIZES, metavar="LIST",
+                   help="crowd and pile sizes (default " + ",".join(map(str, SIZES)) + ")")  # fmt: skip
+    p.add_argument("--steps", type=int, default=300, help="timed steps per case (default 300)")
+    p.add_argument("--warmup", type=int, default=60, help="untimed steps first (default 60)")
+    p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=cmd_bench)
+
     for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli"):
         try:
             register_commands = importlib.import_module(module).register_commands
@@ -116,6 +172,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``twig`` console script."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.parameters = scene_parameters(args)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0

@@ -43,3 +43,53 @@ def yaw_error(fx, fz, dx, dz):
 def clamp(x, lo, hi):
     """x limited to [lo, hi]."""
     return lo if x < lo else (hi if x > hi else x)
+
+
+@njit(cache=True)
+def approach_field(px, pz, gx, gz, obstacles, n_obstacles, speed, repulsion, cutoff, min_sq, curl, fade):
+    """The approach walk vector ``w = a + r`` on the ground plane (SPEC 4); returns (wx, wz).
+
+    ``a``: towards the goal (gx, gz), saturated at ``speed`` and slowing over the last
+    metre. ``r = sum c ((p - o) + (p - o) x e_y) / max(d_min, |p - o|^2)`` over the first
+    ``n_obstacles`` rows of ``obstacles`` nearer than ``cutoff``, fading out within
+    ``fade`` m of the goal; ``w`` is capped at ``speed``. The one implementation of the
+    field: :func:`twig_ecs.steering.approach_velocity` calls it for one character, the
+    wander behaviour for a crowd.
+    """
+    ax = gx - px
+    az = gz - pz
+    dist = math.sqrt(ax * ax + az * az)
+    if dist > 1e-9:
+        k = min(speed, speed * dist)
+        ax = ax / dist * k
+        az = az / dist * k
+    else:
+        ax = 0.0
+        az = 0.0
+    rx = 0.0
+    rz = 0.0
+    cut_sq = cutoff * cutoff
+    for o in range(n_obstacles):
+        ox = px - obstacles[o, 0]
+        oz = pz - obstacles[o, 2]
+        sq = ox * ox + oz * oz
+        if sq >= cut_sq:
+            continue
+        ux = ox
+        uz = oz
+        if curl:  # (p - o) x e_y = (-(p - o)_z, 0, (p - o)_x): the sideways push
+            ux = ox - oz
+            uz = oz + ox
+        m = max(min_sq, sq)
+        rx += repulsion * ux / m
+        rz += repulsion * uz / m
+    # near the goal the push fades (quadratically: a grown-up standing by a ball would
+    # otherwise keep a child circling it), so a crowd cannot hold one off a metre short
+    f = min(1.0, dist / fade) ** 2
+    wx = ax + rx * f
+    wz = az + rz * f
+    w = math.sqrt(wx * wx + wz * wz)
+    if w > speed:
+        wx *= speed / w
+        wz *= speed / w
+    return wx, wz

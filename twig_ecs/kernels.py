@@ -61,11 +61,34 @@ def _prune(base: Path, current: Path) -> None:
 
 
 def _kernels() -> list:
-    from twig_ecs.systems import arms, collide, constrain, gait, gaze, integrate, posture, respiration, sense
+    from twig_ecs.systems import (
+        arms,
+        collide,
+        constrain,
+        gait,
+        gaze,
+        integrate,
+        posture,
+        respiration,
+        sense,
+        wander,
+    )
 
-    return [integrate.integrate_nodes, constrain.solve_constraints, collide.broad_phase,
+    return [integrate.integrate_nodes, constrain.solve_constraints, collide.collider_pairs,
             collide.solve_collisions, sense.feel_impacts, gait.control_gait, gaze.control_gaze,
-            posture.control_posture, arms.control_arms, respiration.breathe]  # fmt: skip
+            posture.control_posture, arms.control_arms, respiration.breathe, wander.steer_crowd]  # fmt: skip
+
+
+def is_cached() -> bool:
+    """Do all kernels have compiled code on disk (or is JIT off)?"""
+    if os.environ.get("NUMBA_DISABLE_JIT") == "1":
+        return True
+    for kernel in _kernels():
+        cache = getattr(kernel, "_cache", None)
+        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+        if index is None or not Path(index).exists():
+            return False
+    return True
 
 
 def ensure_compiled() -> None:
@@ -74,15 +97,7 @@ def ensure_compiled() -> None:
     if _checked:
         return
     _checked = True
-    if os.environ.get("NUMBA_DISABLE_JIT") == "1":
-        return
-    for kernel in _kernels():
-        cache = getattr(kernel, "_cache", None)
-        index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
-        if index is None or not Path(index).exists():
-            print(
-                "twig: compiling physics kernels, first run only (a few seconds)...",
-                file=sys.stderr,
-                flush=True,
-            )
-            return
+    if not is_cached():
+        print(
+            "twig: compiling physics kernels, first run only (a few seconds)...", file=sys.stderr, flush=True
+        )

@@ -14,7 +14,7 @@ from twig_ecs.scene import Scene
 
 def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: tuple | list = (),
                     progress: bool = False, trace: str | Path | None = None,
-                    plot: str | Path | None = None) -> dict:  # fmt: skip
+                    plot: str | Path | None = None, parameters: dict | None = None) -> dict:  # fmt: skip
     """Load a scene, run it for ``seconds`` and measure it at every step.
 
     Returns a JSON-ready dict: scene, seconds, frames, step_ms {median, p95},
@@ -25,7 +25,7 @@ def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: 
     """
     from twig_ecs.metrics import StoryRecorder
 
-    scene = Scene.load(source, seed=seed, content=content)
+    scene = Scene.load(source, seed=seed, content=content, **(parameters or {}))
     try:
         recorder = StoryRecorder(scene, trace=bool(trace or plot))
         report = _measure(scene, seconds, progress, recorder)

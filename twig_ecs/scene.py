@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import time
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
@@ -65,10 +66,14 @@ class Scene:
         self.event_counts: Counter[str] = Counter()
         self._handlers: dict[str, list[Callable[[Event], None]]] = {}
         self._names: dict[str, int] = {}
+        self._name_by_entity: dict[int, str] = {}  # the reverse of _names: handles are made per step
         self._world = f"twig-scene-{next(_world_ids)}"
         self._closed = False
         self.schedule = Schedule()
         self._installed: list[System] | None = None
+        # characters that were given goals (entity -> Mind), pruned when their goals run
+        # out: goal-driven behaviours look only at these (see goal_holders)
+        self._goal_holders: dict[int, Mind] = {}
         self.activate()
         from twig_ecs import systems as s
         from twig_ecs.behavior import load_builtin_behaviors
@@ -94,15 +99,21 @@ class Scene:
 
     @classmethod
     def load(
-        cls, source: str | Path, seed: int = 0, content: tuple[str | Path, ...] | list[str | Path] = ()
+        cls,
+        source: str | Path,
+        seed: int = 0,
+        content: tuple[str | Path, ...] | list[str | Path] = (),
+        **parameters: int | float | str,
     ) -> Scene:
         """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
 
-        ``content`` lists extra folders of templates and scenes. The whole file is
-        validated before anything is created; errors raise :class:`SceneError`.
+        ``content`` lists extra folders of templates and scenes; keyword ``parameters``
+        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``).
+        The whole file is validated before anything is created; errors raise
+        :class:`SceneError`.
         """
         library = ContentLibrary(content)
-        plan = read_scene(source, library)
+        plan = read_scene(source, library, parameters)
         return cls.from_plan(plan, seed)
 
     @classmethod
@@ -110,6 +121,7 @@ class Scene:
         """Build a scene from a validated :class:`ScenePlan`."""
         scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
         scene.source = plan.file
+        scene.parameters = dict(plan.parameters)
         try:
             for system_spec in plan.systems:
                 item, here = system_spec.where
@@ -145,12 +157,15 @@ class Scene:
         return scene
 
     source: str | None = None
+    #: The values of the scene file's parameters it was loaded with.
+    parameters: dict[str, int | float] = {}
 
     def _spawn_spec(self, spec: EntitySpec) -> BodyHandle:
         self.activate()
         entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
                             spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
         self._names[spec.name] = entity
+        self._name_by_entity[entity] = spec.name
         if spec.character is not None:
             make_character(self, entity, spec.facing, spec.character)
             return CharacterHandle(self, entity, spec.name)
@@ -210,6 +225,8 @@ class Scene:
             esper.delete_entity(e, immediate=True)
         self._apply_remap(remap)
         del self._names[name]
+        del self._name_by_entity[entity]
+        self._goal_holders.pop(entity, None)
 
     def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
         """Follow a store compaction: rewrite every row index held by components."""
@@ -340,6 +357,25 @@ class Scene:
             esper.process(self.dt)
             self.frame += 1
 
+    def step_timed(self, times: dict[str, list[float]]) -> float:
+        """One step like :meth:`step`, timing each system; returns the step's wall time (s).
+
+        Appends each system's seconds to ``times[name]`` (for ``twig bench``).
+        """
+        clock = time.perf_counter
+        start = clock()
+        self.step(0)  # activate, install, compile: nothing when already done
+        if self.state.colliders_dirty:
+            self.state.rebuild_colliders()
+        self.events.clear()
+        esper.clear_dead_entities()  # as esper.process does before the processors
+        for system in self._installed or ():
+            t0 = clock()
+            system.process(self.dt)
+            times.setdefault(system.name, []).append(clock() - t0)
+        self.frame += 1
+        return clock() - start
+
     def run(self, seconds: float) -> None:
         """Advance by ``seconds`` of simulated time (rounded to whole steps)."""
         self.step(int(round(seconds / self.dt)))
@@ -367,7 +403,26 @@ class Scene:
 
     def character_handle(self, entity: int) -> CharacterHandle:
         """The handle of a character by entity id."""
-        return CharacterHandle(self, entity, self.name_of(entity) or str(entity))
+        name = self._name_by_entity.get(entity)
+        if name is None:
+            name = self.name_of(entity) or str(entity)
+        return CharacterHandle(self, entity, name)
+
+    def note_goal(self, entity: int, mind: Mind) -> None:
+        """Record that a character was given a goal (see :meth:`goal_holders`)."""
+        self._goal_holders[entity] = mind
+
+    def goal_holders(self) -> list[tuple[int, Mind]]:
+        """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
+
+        Costs as many characters as hold goals, not all of them: characters join when
+        given a goal (:meth:`note_goal`) and leave here once their goals have run out.
+        """
+        holders = self._goal_holders
+        done = [e for e, mind in holders.items() if not mind.goals]
+        for e in done:
+            del holders[e]
+        return list(holders.items())
 
     def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """Finish a character's goal: mark it, drop it from the queue, report it."""
@@ -402,6 +457,9 @@ class Scene:
 
     def name_of(self, entity: int) -> str | None:
         """The name of an entity (a body, or the body owning a node or link)."""
+        name = self._name_by_entity.get(entity)
+        if name is not None:  # a named body: the common case, without esper look-ups
+            return name
         self.activate()
         for comp in (Node, Link):
             part = esper.try_component(entity, comp)

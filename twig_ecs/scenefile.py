@@ -7,7 +7,9 @@ bad file leaves nothing half-loaded.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import colorsys
+import math
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +19,7 @@ from twig_ecs.character import CharacterSpec
 from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import TwigError
 from twig_ecs.library import ContentLibrary, read_document
+from twig_ecs.parameters import read_parameters, resolve, substitute
 from twig_ecs.store import ROLES
 from twig_ecs.system import System
 from twig_ecs.templates import (
@@ -43,11 +46,12 @@ from twig_ecs.validate import (
 )
 from twig_ecs.yamldoc import YDict
 
-SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "systems", "entities")
+SCENE_KEYS = ("twig", "name", "description", "parameters", "settings", "templates", "systems", "entities")
 SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
-               "character", "perception", "behaviors")  # fmt: skip
+               "character", "perception", "behaviors", "repeat")  # fmt: skip
+REPEAT_KEYS = ("count", "spacing")
 CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
                   "patrol")  # fmt: skip
 
@@ -109,6 +113,7 @@ class ScenePlan:
     entities: list[EntitySpec]
     library: ContentLibrary
     systems: list[SystemSpec] = field(default_factory=list)
+    parameters: dict[str, int | float] = field(default_factory=dict)  # the values it was read with
 
 
 def read_settings(doc: YDict) -> Settings:
@@ -238,11 +243,17 @@ def read_character(raw: YDict, path: str, template: BodyTemplate) -> CharacterSp
     return spec
 
 
-def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
-    """Read and fully validate a scene file (a path or a known scene name)."""
+def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | None = None) -> ScenePlan:
+    """Read and fully validate a scene file (a path or a known scene name).
+
+    ``parameters`` set the scene's declared ``parameters:`` (see
+    :mod:`twig_ecs.parameters`); unknown names or bad values raise SceneError.
+    """
     path = library.scene_path(source)
     doc = read_document(path)
     check_keys(doc, "", SCENE_KEYS)
+    values = resolve(read_parameters(doc), parameters or {}, str(doc.get("name", path.stem)))
+    substitute(doc, values)
     if "template" in doc:
         fail(doc, "template", "template", "this is a body template, not a scene")
     library = library.copy()
@@ -262,18 +273,19 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
     for i, raw in enumerate(raw_entities):
         here = f"entities[{i}]"
         raw = read(raw_entities, i, "entities", mapping)
-        spec = read_entity(raw, here, library)
-        if spec.name in seen:
-            fail(
-                raw,
-                "name",
-                join(here, "name"),
-                f"duplicate entity name '{spec.name}' (first used by entities[{seen[spec.name]}])",
-            )
-        seen[spec.name] = i
-        spec.behaviors = read_behaviors(raw, here, known, systems, spec)
-        spec.perception = read_perception(raw, here, spec)
-        entities.append(spec)
+        first = read_entity(raw, here, library)
+        for spec in repeat(raw, here, first):
+            if spec.name in seen:
+                fail(
+                    raw,
+                    "name",
+                    join(here, "name"),
+                    f"duplicate entity name '{spec.name}' (first used by entities[{seen[spec.name]}])",
+                )
+            seen[spec.name] = i
+            spec.behaviors = read_behaviors(raw, here, known, systems, spec)
+            spec.perception = read_perception(raw, here, spec)
+            entities.append(spec)
     for i, spec in enumerate(entities):  # names in character commands must exist
         if spec.character is None:
             continue
@@ -292,7 +304,41 @@ def read_scene(source: str | Path, library: ContentLibrary) -> ScenePlan:
         entities=entities,
         library=library,
         systems=systems,
+        parameters=values,
     )
+
+
+#: Golden angle (degrees): facings and hues of repeated entities spread without a pattern.
+GOLDEN = 137.50776
+
+
+def repeat(raw: YDict, path: str, spec: EntitySpec) -> list[EntitySpec]:
+    """The entity ``spec`` as written, or ``repeat: {count, spacing}`` copies of it.
+
+    Copies are named ``name0``, ``name1``... and stand on a square grid ``spacing`` m
+    apart centred on ``position`` (so the area grows with the count), with spread-out
+    facings and, unless ``color`` is given, colours.
+    """
+    if "repeat" not in raw:
+        return [spec]
+    here = join(path, "repeat")
+    doc = read(raw, "repeat", path, mapping)
+    check_keys(doc, here, REPEAT_KEYS)
+    count = read(doc, "count", here, integer(1, 100_000))
+    spacing = read(doc, "spacing", here, positive, 2.0)
+    side = math.ceil(math.sqrt(count))
+    out = []
+    for k in range(count):
+        x = (k % side - (side - 1) / 2) * spacing
+        z = (k // side - (side - 1) / 2) * spacing
+        position = (spec.position[0] + x, spec.position[1], spec.position[2] + z)
+        facing = (spec.facing + GOLDEN * k) % 360
+        copy = replace(spec, name=f"{spec.name}{k}", position=position, facing=facing)
+        if spec.color is None:
+            r, g, b = colorsys.hsv_to_rgb((GOLDEN * k / 360.0) % 1.0, 0.55, 0.85)
+            copy.color = (r, g, b, 1.0)
+        out.append(copy)
+    return out
 
 
 def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:

@@ -157,7 +157,7 @@ def spawn_body(
         limits.frame[j] = [first + index[f] for f in spec.frame]
         limits.side[j] = spec.side
         limits.ref[j] = spec.ref
-        limits.arc_min[j], limits.arc_max[j] = spec.arc
+        limits.set_arc(j, *spec.arc)
         limits.body[j] = body
 
     components = [

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twig_ecs.kernelmath import approach_field
+
 
 @dataclass(frozen=True, slots=True)
 class SteeringParams:
@@ -33,30 +35,12 @@ class SteeringParams:
 def approach_velocity(position: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
                       params: SteeringParams = SteeringParams()) -> np.ndarray:  # fmt: skip
     """Walk vector (x, 0, z) towards ``goal`` around ``obstacles`` ((n, 3) points)."""
-    a = (goal - position) * np.array([1.0, 0.0, 1.0])
-    dist = float(np.linalg.norm(a))
-    # saturate: full speed far away, slowing over the last metre
-    a = a / dist * min(params.speed, params.speed * dist) if dist > 1e-9 else np.zeros(3)
-    r = np.zeros(3)
-    if len(obstacles):
-        off = (position - obstacles) * np.array([1.0, 0.0, 1.0])
-        sq = (off**2).sum(axis=1)
-        near = sq < params.cutoff**2
-        if near.any():
-            off, sq = off[near], sq[near]
-            push = off.copy()
-            if params.curl:
-                push += np.stack([-off[:, 2], np.zeros(len(off)), off[:, 0]], axis=1)  # off x e_y
-            r = (params.repulsion * push / np.maximum(params.min_sq, sq)[:, None]).sum(axis=0)
-            # near the goal the push fades (quadratically: a grown-up standing by a ball
-            # would otherwise keep a child circling it), so a crowd round the target
-            # cannot hold one off a metre short
-            r *= min(1.0, dist / params.fade) ** 2
-    w = a + r
-    speed = float(np.linalg.norm(w))
-    if speed > params.speed:
-        w *= params.speed / speed
-    return w
+    # one compiled implementation of the field, shared with the crowd's wander behaviour
+    obstacles = np.ascontiguousarray(obstacles, dtype=np.float64).reshape(-1, 3)
+    wx, wz = approach_field(float(position[0]), float(position[2]), float(goal[0]), float(goal[2]),
+                            obstacles, len(obstacles), params.speed, params.repulsion, params.cutoff,
+                            params.min_sq, params.curl, params.fade)  # fmt: skip
+    return np.array([wx, 0.0, wz])
 
 
 def ground_distance(a: np.ndarray, b: np.ndarray) -> float:

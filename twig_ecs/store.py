@@ -8,6 +8,7 @@ removing a body compacts the rows and returns an index remap so components can f
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,6 +82,9 @@ LIMIT_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "ref": (np.float64, (2,), 0.0),  # 0-direction = ref[0] * forward + ref[1] * up
     "arc_min": (np.float64, (), 0.0),
     "arc_max": (np.float64, (), 0.0),
+    # inward normals of the arc's two edges, (-sin min, cos min, sin max, -cos max): set
+    # with the arc, so the solver's passes need no trigonometry (see set_arc)
+    "edges": (np.float64, (4,), 0.0),
     "body": (np.int32, (), -1),
 }
 
@@ -131,6 +135,11 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "steps": (np.int64, (), 0),
     "breath_phase": (np.float64, (), 0.0),
     "gesture_phase": (np.float64, (), 0.0),
+    # batch steering (the wander behaviour): where it heads and how it is getting on
+    "steer_goal": (np.float64, (2,), 0.0),  # (x, z) of the current target
+    "steer_speed": (np.float64, (), 0.0),  # m/s; 0: no target yet
+    "steer_best": (np.float64, (), np.inf),  # nearest it has been to the target (m)
+    "steer_best_at": (np.float64, (), 0.0),  # when (s)
 }
 
 BODY_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
@@ -159,7 +168,13 @@ class Block:
     def __post_init__(self) -> None:
         assert not {"count", "arrays", "fields"} & self.fields.keys(), "reserved field name"
         for name, (dtype, shape, fill) in self.fields.items():
-            self.arrays[name] = np.full((4, *shape), fill, dtype=dtype)
+            self._set(name, np.full((4, *shape), fill, dtype=dtype))
+
+    def _set(self, name: str, array: np.ndarray) -> None:
+        # also an instance attribute: ``block.pos`` is then a plain attribute read, which
+        # hot Python paths do thousands of times a step (a __getattr__ costs ~5x more)
+        self.arrays[name] = array
+        self.__dict__[name] = array
 
     def __getattr__(self, name: str) -> np.ndarray:
         try:
@@ -182,7 +197,7 @@ class Block:
             for name, (dtype, shape, fill) in self.fields.items():
                 grown = np.full((new_cap, *shape), fill, dtype=dtype)
                 grown[: self.count] = self.arrays[name][: self.count]
-                self.arrays[name] = grown
+                self._set(name, grown)
         for name, (_dtype, _shape, fill) in self.fields.items():
             self.arrays[name][start:stop] = fill
         self.count = stop
@@ -207,6 +222,11 @@ class Block:
     def clear(self) -> None:
         """Drop every row."""
         self.keep(np.zeros(self.count, dtype=bool))
+
+    def set_arc(self, row: int, arc_min: float, arc_max: float) -> None:
+        """Set a joint limit's arc (radians) and the edge normals derived from it."""
+        self.arc_min[row], self.arc_max[row] = arc_min, arc_max
+        self.edges[row] = (-math.sin(arc_min), math.cos(arc_min), math.sin(arc_max), -math.cos(arc_max))
 
 
 def _remap(indices: np.ndarray, remap: np.ndarray) -> None:

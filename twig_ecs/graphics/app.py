@@ -79,11 +79,12 @@ class Viewer:
 
     def __init__(self, source: str, seed: int = 0, content: tuple | list = (),
                  camera: CameraSpec | None = None, paused: bool = False,
-                 screenshot_dir: str | Path = ".") -> None:  # fmt: skip
+                 screenshot_dir: str | Path = ".", parameters: dict | None = None) -> None:  # fmt: skip
         from twig_ecs import Scene
 
         self.source, self.seed, self.content = source, seed, list(content)
-        self.scene = Scene.load(source, seed=seed, content=self.content)
+        self.parameters = dict(parameters or {})
+        self.scene = Scene.load(source, seed=seed, content=self.content, **self.parameters)
         self.scene.step(0)  # compile kernels and install systems now, not in the first frame
         self.camera_spec = camera or CameraSpec()
         self.camera: OrbitCamera | None = None  # made at the first frame, when the aspect is known
@@ -183,7 +184,7 @@ class Viewer:
 
         source = self.scene.source or self.source
         try:
-            fresh = Scene.load(source, seed=self.seed, content=self.content)
+            fresh = Scene.load(source, seed=self.seed, content=self.content, **self.parameters)
             fresh.step(0)
         except TwigError as exc:
             self.say(f"reload failed: {exc}", 8.0)
@@ -339,10 +340,10 @@ class Viewer:
 def open_window(source: str = "schoolyard", seed: int = 0, content: tuple | list = (),
                 size: tuple[int, int] = (1280, 720), camera: CameraSpec | None = None,
                 paused: bool = False, headless: bool = False, screenshot_dir: str | Path = ".",
-                visible: bool = True):  # fmt: skip
+                visible: bool = True, parameters: dict | None = None):  # fmt: skip
     """Open a play window (a :class:`PlayWindow`, a ``pyglet.window.Window``) on a scene."""
     window_module = load_pyglet_window(headless)
-    viewer = Viewer(source, seed, content, camera, paused, screenshot_dir)
+    viewer = Viewer(source, seed, content, camera, paused, screenshot_dir, parameters)
     try:
         return _window_class(window_module)(viewer, size, visible=visible and not headless)
     except BaseException:
@@ -454,9 +455,11 @@ def play(
     max_frames: int | None = None,
     headless: bool = False,
     screenshot_dir: str | Path = ".",
+    parameters: dict | None = None,
 ) -> int:
     """Open the window and run until it closes (or ``max_frames`` are drawn); return frames drawn."""
-    window = open_window(source, seed, content, size, camera, paused, headless, screenshot_dir)
+    window = open_window(source, seed, content, size, camera, paused, headless, screenshot_dir,
+                         parameters=parameters)  # fmt: skip
     if max_frames is None and not headless:
         pyglet.app.run(interval=1 / 120)
         return window.viewer.frames

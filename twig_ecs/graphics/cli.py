@@ -45,7 +45,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     size = parse_size(args.size)
     check_output(args.output)
     camera = CameraSpec.parse(args.camera)
-    scene = Scene.load(args.scene, seed=args.seed, content=args.content)
+    scene = Scene.load(args.scene, seed=args.seed, content=args.content, **args.parameters)
     try:
         result = render_scene(scene, args.seconds, args.output, size=size, fps=args.fps, camera=camera)
     finally:
@@ -67,7 +67,7 @@ def cmd_play(args: argparse.Namespace) -> int:
 
     frames = play(args.scene, seed=args.seed, content=args.content, size=size, camera=camera,
                   paused=args.paused, max_frames=args.frames, headless=args.headless,
-                  screenshot_dir=args.screenshot_dir)  # fmt: skip
+                  screenshot_dir=args.screenshot_dir, parameters=args.parameters)  # fmt: skip
     if args.frames is not None:
         print(f"played {frames} frames", file=sys.stderr)
     return 0

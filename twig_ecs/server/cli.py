@@ -99,12 +99,13 @@ def cmd_serve(args: argparse.Namespace) -> int:
     if args.window:
         from twig_ecs.graphics.app import open_window
 
-        window = open_window(args.scene, seed=args.seed, content=args.content, paused=args.paused)
+        window = open_window(args.scene, seed=args.seed, content=args.content, paused=args.paused,
+                             parameters=args.parameters)  # fmt: skip
         scene = window.viewer.scene
     else:
         from twig_ecs import Scene
 
-        scene = Scene.load(args.scene, seed=args.seed, content=args.content)
+        scene = Scene.load(args.scene, seed=args.seed, content=args.content, **args.parameters)
     try:
         server = Server(
             scene,
