@@ -190,11 +190,13 @@ def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, b
         q = bpairs[k, 1]
         for e1 in range(body_start[p], body_start[p + 1]):
             i = order[e1]
-            if col_ignore[i] == q or not _boxes_overlap(lo, hi, i, body_lo, body_hi, q):
+            if col_ignore[i, 0] == q or col_ignore[i, 1] == q:
+                continue  # it holds (or is held by) that body
+            if not _boxes_overlap(lo, hi, i, body_lo, body_hi, q):
                 continue
             for e2 in range(body_start[q], body_start[q + 1]):
                 j = order[e2]
-                if col_ignore[j] == p or not _boxes_overlap(lo, hi, i, lo, hi, j):
+                if col_ignore[j, 0] == p or col_ignore[j, 1] == p or not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
                 if n_pairs < cap:
                     pairs[n_pairs, 0] = min(i, j)

@@ -95,7 +95,7 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         most = math.sqrt(max(0.0, leg_length[c] ** 2 - hip_h * hip_h))
         reach = min(REACH * most, s * (STRIDE + STRIDE_PER_SPEED * speed))
         # shorter legs step faster: a pendulum's period goes with the root of its length
-        t_step = (STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)) * math.sqrt(s)
+        t_step = (STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)) * s**1.0
         # which foot is furthest from where it belongs?
         best = -1
         best_need = 0.0

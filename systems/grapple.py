@@ -2,8 +2,9 @@
 
 Goal-driven (``character.grapple(target, duration=3)``): approach with the arms up
 (the grapple pose), then throw the hands at the target's head and chest in turn -
-shoves and punches whose impacts hurt it (its pain withdrawal may well win). Keeps
-closing in while it fights; done after ``duration`` seconds of fighting.
+shoves and punches whose impacts hurt it (its pain withdrawal may well win). Follows
+the target when it backs off; done after ``duration`` seconds of fighting within reach
+(and failed, like an approach, if it cannot catch up).
 """
 
 from __future__ import annotations
@@ -41,13 +42,14 @@ class Grapple(Behavior):
                 m.pop("best", None)  # following it later starts stall-watching afresh
             return
         if ground_distance(character.position, other.position) > 1.3 * ARMS_LENGTH * scale:
-            steer_to(character, goal, target, ARMS_LENGTH * scale)  # it backed off: follow
-            if goal.finished:
-                return
-        else:
-            character.stop()
-            m.pop("best", None)
-        fought = character.scene.time - m["fighting"]
+            # it backed off: follow with the arms up; blows and the fight's clock wait
+            # until it is within reach again (a fight is not over because one ran off)
+            character.pose("grapple")
+            steer_to(character, goal, target, ARMS_LENGTH * scale)
+            return
+        character.stop()
+        m.pop("best", None)
+        m["fought"] = fought = m.get("fought", 0.0) + dt
         hand = ("left", "right")[int(fought / PUNCH) % 2]
         spare = ("right", "left")[int(fought / PUNCH) % 2]
         # a punch aims through the target, so the hand is still fast when it lands, and

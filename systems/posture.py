@@ -50,11 +50,12 @@ WALK_GAIN = 15.0  # 1/s: pelvis velocity towards the walk vector
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
 YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
 LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
-WALK_SINK = 0.035  # m of pelvis height per m/s of walking (at 1.75 m tall)
+WALK_SINK = 0.07  # m of pelvis height per m/s of walking (at 1.75 m tall)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
 MAX_YAW_ACC = 600.0  # rad/s^2
+MAX_TURN_ERROR = 0.35  # rad of heading error the pelvis turns on at most: about 5 rad/s
 FOLDED = 0.3  # chest lower than this many torso lengths above the pelvis: folded over
 
 TORSO = (PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_SHOULDER, R_SHOULDER)
@@ -168,7 +169,10 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         theta = 0.0
         if moving and mode[c] == STAND:
             sp = math.sqrt(wx * wx + wz * wz)
-            theta = yaw_error(fx, fz, wx / sp, wz / sp)
+            # turn at a bounded rate (about YAW_GAIN * MAX_TURN_ERROR / YAW_DAMP): hips
+            # spun round over planted feet faster than the feet can step twist the legs
+            # through each other
+            theta = clamp(yaw_error(fx, fz, wx / sp, wz / sp), -MAX_TURN_ERROR, MAX_TURN_ERROR)
         alpha = clamp(YAW_GAIN * theta - YAW_DAMP * omega, -MAX_YAW_ACC, MAX_YAW_ACC)
         for role in LOWER:
             i = nd[role]

@@ -97,7 +97,7 @@ COLLIDER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "body": (np.int32, (), -1),
     "local": (np.int32, (), 0),  # index among its body's colliders (0..63)
     "mask": (np.uint64, (), 0),  # bit k set: never collide with local collider k of own body
-    "ignore": (np.int32, (), -1),  # a body it never collides with (what its hand holds)
+    "ignore": (np.int32, (2,), -1),  # up to two bodies it never collides with (what it holds)
     # Tactile sensing written by the collide kernel each step (SPEC 2):
     "hit_energy": (np.float64, (), 0.0),  # largest impact kinetic energy this step (J)
     "hit_by": (np.int32, (), -1),  # collider that delivered it
@@ -227,6 +227,15 @@ class Block:
         """Set a joint limit's arc (radians) and the edge normals derived from it."""
         self.arc_min[row], self.arc_max[row] = arc_min, arc_max
         self.edges[row] = (-math.sin(arc_min), math.cos(arc_min), math.sin(arc_max), -math.cos(arc_max))
+
+
+def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
+    """Add ``body`` to a collider's (two) ignored bodies; a third replaces the second."""
+    slots = ignore[collider]
+    if body in slots:
+        return
+    free = np.flatnonzero(slots == -1)
+    slots[free[0] if len(free) else 1] = body
 
 
 def _remap(indices: np.ndarray, remap: np.ndarray) -> None:
@@ -393,15 +402,15 @@ class PhysicsState:
             arm_b = {b, elbow_of.get(b, b)}
             for c in range(total):
                 if int(col.a[c]) in arm_a or int(col.b[c]) in arm_a:
-                    col.ignore[c] = bb
+                    _ignore(col.ignore, c, bb)
                 elif int(col.a[c]) in arm_b or int(col.b[c]) in arm_b:
-                    col.ignore[c] = ba
+                    _ignore(col.ignore, c, ba)
             if not live:
                 continue
             for holder, held in ((ba, bb), (bb, ba)):
                 if held not in characters:
-                    mine = (col.body[:total] == holder) & (col.ignore[:total] == -1)
-                    col.ignore[:total][mine] = held
+                    for c in np.flatnonzero(col.body[:total] == holder):
+                        _ignore(col.ignore, c, held)
         self.version += 1
 
     def release_grace(self, a: int, b: int, steps: int) -> None:
