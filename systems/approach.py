@@ -55,8 +55,10 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
 
 
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,
-             exclude: tuple[str, ...] = ()) -> bool:  # fmt: skip
+             exclude: tuple[str, ...] = (), speed: float | None = None) -> bool:  # fmt: skip
     """Walk towards ``target`` until within ``stop_distance``; True once there.
+
+    ``speed`` (m/s) overrides the steering's usual walking pace.
 
     Fails the goal when it stalls. ``direction`` (a ground vector) makes it arrive from
     that side of the target; by default it comes from where it is.
@@ -82,9 +84,17 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         character.scene.end_goal(character, goal, False, f"stuck {distance:.2f} m from the target")
         return False
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
-    params = SteeringParams(curl=curl)
+    params = SteeringParams(curl=curl) if speed is None else SteeringParams(curl=curl, speed=speed)
     obstacles = obstacles_near(character, ignore, params.cutoff)
-    character.walk(approach_velocity(here, aim, obstacles, params))
+    walk = approach_velocity(here, aim, obstacles, params)
+    if isinstance(target, str):
+        # pursuit: match a moving target's pace on top of closing in, or one that walks
+        # away is never caught (the field slows down over the last metre)
+        walk = walk + scene.entity(target).velocity * np.array([1.0, 0.0, 1.0])
+        pace = float(np.linalg.norm(walk))
+        if pace > params.speed:
+            walk *= params.speed / pace
+    character.walk(walk)
     return False
 
 

@@ -73,7 +73,7 @@ class Hug(Behavior):
                 character.reach(tuple(back), hand=hand)
                 grip = _within_reach(character, other, hand, held, late=now - m["since"] > 0.5 * WRAP_TIME)
                 if grip is not None:
-                    standoff = _surface(character, other, grip)
+                    standoff = _surface(other, grip)
                     try:
                         character.grab(target, hand=hand, node=grip, standoff=standoff)
                         character.pose("hug", hand=hand)
@@ -132,18 +132,14 @@ def _within_reach(character, other, hand: str, held: str, late: bool) -> str | N
     return best if np.linalg.norm(palm - other.node(best)) < reach else None
 
 
-def _surface(character, other, node: str) -> float:
-    """How far from ``other``'s ``node`` a hand rests on its surface: the thickest
-    capsule at that node plus the forearm's."""
-    links = character.scene.state.links
-    rows = np.arange(links.count)
+def _surface(other, node: str) -> float:
+    """How far from ``other``'s ``node`` a hand rests: on the surface of the thickest
+    capsule there (the arm ignores what it holds, so the forearm may sink in a little)."""
+    links = other.scene.state.links
     collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
-    a, b = links.a[: links.count], links.b[: links.count]
-    at, hand = other._row(node), character._row("r_hand")
-    body = collide & ((a == at) | (b == at))
-    arm = collide & ((a == hand) | (b == hand))
-    thick = float(links.radius[rows[body]].max()) if body.any() else 0.0
-    return thick + (float(links.radius[rows[arm]].max()) if arm.any() else 0.0)
+    at = other._row(node)
+    body = collide & ((links.a[: links.count] == at) | (links.b[: links.count] == at))
+    return float(links.radius[: links.count][body].max()) if body.any() else 0.0
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
