@@ -515,7 +515,7 @@ class CharacterHandle(BodyHandle):
                 self.scene.entity(value)  # KeyError with suggestions if unknown
             elif value is not None:
                 merged[key] = tuple(_vector(value, f"{behavior} {key}"))
-        goal = Goal(behavior, merged, on_end=on_end)
+        goal = Goal(behavior, merged, id=self.scene.new_goal_id(), on_end=on_end)
         self.mind.goals.append(goal)
         return goal
 
