@@ -244,8 +244,10 @@ def _split(data: bytes) -> tuple[dict[str, Any], bytes]:
     if not isinstance(data, bytes | bytearray | memoryview):
         raise SnapshotError(f"a snapshot is bytes, got {type(data).__name__}")
     data = bytes(data)
-    if len(data) < _HEAD.size or data[:8] != MAGIC:
+    if data[:8] != MAGIC:
         raise SnapshotError("not a twig snapshot (it does not start with TWIGSNAP)")
+    if len(data) < _HEAD.size:
+        raise SnapshotError(f"snapshot truncated: {len(data)} bytes, not even a whole header")
     _magic, version, meta_len = _HEAD.unpack_from(data)
     if version != FORMAT_VERSION:
         raise SnapshotError(
