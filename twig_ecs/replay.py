@@ -37,6 +37,14 @@ class ReplayError(TwigError):
     """A replay file that cannot be read or replayed."""
 
 
+class HeadlessSession:
+    """Stands in for a client session when commands are applied without a socket (replay)."""
+
+    def __init__(self) -> None:
+        self.subscriptions: set[str] = set()
+        self.authenticated = True
+
+
 def _jsonable(value: Any) -> Any:
     """Bound parameters as JSON (vectors are tuples)."""
     if isinstance(value, tuple | list):
@@ -180,6 +188,7 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="twig-replay-") as tmp:
         scene = _load_scene(header, Path(tmp))
     server = Server(scene, autonomous=bool(header.get("autonomous", True)), log=log or (lambda text: None))
+    session = HeadlessSession()
     diverged = 0
     try:
         for item in commands:
@@ -194,7 +203,7 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
                 continue
             error = None
             try:
-                method.fn(server, None, **bind(method, item.get("params") or {}))
+                method.fn(server, session, **bind(method, item.get("params") or {}))
             except RPCError as exc:
                 error = str(exc)
             except KeyError as exc:

@@ -26,6 +26,7 @@ from twig_ecs.templates import (
     read_pain,
 )
 from twig_ecs.validate import (
+    between,
     check_keys,
     color,
     fail,
@@ -43,6 +44,9 @@ from twig_ecs.validate import (
 )
 from twig_ecs.yamldoc import YDict
 
+#: A body's height (m) and total mass (kg) in a scene: the ranges the server's spawn accepts.
+HEIGHT = between(0.01, 100.0)
+MASS = between(1e-3, 1e6)
 SCENE_KEYS = ("twig", "name", "description", "settings", "templates", "systems", "entities")
 SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
@@ -146,8 +150,8 @@ def read_entity(raw: YDict, path: str, library: ContentLibrary) -> EntitySpec:
         template=template,
         position=read(raw, "position", path, vec3, (0.0, 0.0, 0.0)),
         facing=read(raw, "facing", path, number, 0.0),
-        height=read(raw, "height", path, positive, None),
-        mass=read(raw, "mass", path, positive, None),
+        height=read(raw, "height", path, HEIGHT, None),
+        mass=read(raw, "mass", path, MASS, None),
         color=read(raw, "color", path, color, None),
         pain=pain,
         damping=read_damping(raw, "damping", path, None),
