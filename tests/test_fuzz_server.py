@@ -27,6 +27,7 @@ from twig_ecs.replay import HeadlessSession
 from twig_ecs.server.core import Server
 from twig_ecs.server.methods import EVENT_KINDS, METHODS, Param, bind
 from twig_ecs.server.protocol import INTERNAL_ERROR, RPCError, parse_request
+from twig_ecs.server.twigline import parse_line
 
 EXAMPLES = int(os.environ.get("TWIG_FUZZ_EXAMPLES", "0")) or None
 FUZZ = settings(
@@ -271,3 +272,23 @@ def test_huge_and_deep_lines_are_refused_and_the_server_carries_on(served):
     assert exchange(raw, json.dumps([{"jsonrpc": "2.0", "method": "ping"}] * 20_000).encode(), 0) == []
     (pong,) = exchange(raw, b'{"jsonrpc":"2.0","id":"p","method":"ping"}', 1)
     assert pong["result"] == "pong"
+
+
+twig_words = st.one_of(
+    st.sampled_from(("parent:", "server:", "ball:", "walk", "hug", "spawn", "[", "]", "(", ")", ",", '"',
+                     "x=", "=", "true", "null", "1e400", "-0", "[1 0", "99999999999999999999999"),),
+    st.text(max_size=6),
+)  # fmt: skip
+
+
+@FUZZ
+@given(st.lists(twig_words, max_size=12).map(" ".join))
+@example("parent: walk " + "[" * 50_000)
+@example("server: spawn ball " + "]" * 100)
+def test_random_twig_lines_parse_or_raise_rpc_error(line):
+    try:
+        name, params = parse_line(line)
+    except RPCError as exc:
+        assert exc.message
+    else:  # an unknown method name comes back too: the call then reports it
+        assert name and " " not in name and isinstance(params, dict)

@@ -172,3 +172,23 @@ def test_the_cli_reports_a_bad_snapshot_without_a_traceback(tmp_path, capsys):
     assert err.startswith("error: snapshot truncated") and "Traceback" not in err
     assert main(["run", "--load", str(tmp_path / "missing"), "--seconds", "1"]) == 2
     assert "cannot read snapshot" in capsys.readouterr().err
+
+
+def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_process(tmp_path, capsys):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene_file = Path(__file__).resolve().parent.parent / "examples" / "dance" / "scene.yaml"
+    path = tmp_path / "dance.twigsnap"
+    assert main(["run", str(scene_file), "--seconds", "2", "--save", str(path)]) == 0
+    capsys.readouterr()
+    meta = read_meta(path.read_bytes())
+    assert [p["module"] for p in meta["plugins"]] == ["twig_plugin_dance"]
+    assert meta["plugins"][0]["file"].endswith("dance.py")
+    assert main(["run", str(scene_file), "--seconds", "3", "--report", "json"]) == 0
+    straight = json.loads(capsys.readouterr().out)
+    done = subprocess.run([sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
+                           "--report", "json"], capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["state_hash"] == straight["state_hash"]

@@ -296,9 +296,10 @@ def restore(data: bytes):
     scene.activate()
     try:
         esperworld.restore(world)
-    except Exception:
+    except Exception as exc:
         scene.close()
-        raise
+        why = type(exc).__name__
+        raise SnapshotError(f"snapshot corrupt: its entities cannot be restored ({why})") from None
     finally:
         if previous in esper.list_worlds() and previous != esper.current_world:
             esper.switch_world(previous)
@@ -324,8 +325,8 @@ def _import_plugins(plugins: Any) -> set[str]:
     if not isinstance(plugins, list):
         raise SnapshotError("snapshot corrupt: bad plug-in list")
     for item in plugins:
-        module, file = item.get("module"), item.get("file")
-        if not isinstance(module, str):
+        module, file = (item.get("module"), item.get("file")) if isinstance(item, dict) else (None, None)
+        if not isinstance(module, str) or not isinstance(file, str | None):
             raise SnapshotError("snapshot corrupt: bad plug-in list")
         if module not in sys.modules:
             try:

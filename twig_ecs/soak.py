@@ -34,14 +34,9 @@ class SoakLimits:
     max_energy: float = 500_000.0  # J, kinetic energy of all free nodes (worst seen 205 kJ; typical 1 kJ)
 
 
-#: Figure name -> (SoakLimits field, True when larger is worse).
-FIGURES = {
-    "max_speed": ("max_speed", True),
-    "min_y": ("min_y", False),
-    "max_penetration": ("max_penetration", True),
-    "max_link_error": ("max_link_error", True),
-    "max_energy": ("max_energy", True),
-}
+#: The figures (named as their SoakLimits fields): True when larger is worse.
+FIGURES = {"max_speed": True, "min_y": False, "max_penetration": True, "max_link_error": True,
+           "max_energy": True}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -59,7 +54,7 @@ class Violation:
         """One line for a person."""
         if self.figure == "nan":
             return f"frame {self.frame} (t={self.time:.3f} s): NaN in the positions of '{self.entity}'"
-        side = "above" if FIGURES[self.figure][1] else "below"
+        side = "above" if FIGURES[self.figure] else "below"
         return (
             f"frame {self.frame} (t={self.time:.3f} s): {self.figure} {self.value:.4g} is {side} the "
             f"limit {self.limit:.4g} at '{self.entity}'"
@@ -111,10 +106,10 @@ class Health:
             figures["max_link_error"] = (float(errors[worst]), int(st.links.a[rows[worst]]))
         crossed = None
         for figure, (value, who) in figures.items():
-            larger_is_worse = FIGURES[figure][1]
+            larger_is_worse = FIGURES[figure]
             old = getattr(self, figure)
             setattr(self, figure, max(old, value) if larger_is_worse else min(old, value))
-            limit = getattr(self.limits, FIGURES[figure][0]) if self.limits else None
+            limit = getattr(self.limits, figure) if self.limits else None
             if limit is None or crossed is not None:
                 continue
             if (value > limit) if larger_is_worse else (value < limit):
