@@ -102,3 +102,20 @@ def test_twig_serve_record_writes_a_replay_that_twig_run_replays(tmp_path):
     assert end is not None and end["end"] == 45
     result = replay(path)
     assert result["match"] and result["state_hash"] == end["state_hash"]
+
+
+def test_a_replay_carries_its_scene_file_when_the_original_is_gone(tmp_path):
+    scene_file = tmp_path / "duo.yaml"
+    scene_file.write_text(
+        "twig: 1\nname: duo\nentities:\n"
+        "  - {name: ann, body: humanoid, character: true}\n"
+        "  - {name: toy, body: ball, position: [1, 0.5, 1]}\n"
+    )
+    path = tmp_path / "duo.twigreplay"
+    with running_server(scene=str(scene_file), record=str(path), paused=True) as srv:
+        with Client(port=srv.port) as twig:
+            twig.carry(character="ann", target="toy", to=[-1.0, 0.0, 0.0])
+            twig.step(n=120)
+    scene_file.unlink()
+    result = replay(path)
+    assert result["scene"] == "duo" and result["frames"] == 120 and result["match"]
