@@ -12,6 +12,16 @@ import pytest
 from twig_ecs import Scene
 from twig_ecs.cli import main
 from twig_ecs.snapshot import FORMAT_VERSION, MAGIC, SnapshotError, read_meta
+from twig_ecs.system import System
+
+
+class Holding(System):
+    """A user system that keeps whatever it is given (a kernel, a socket) as state."""
+
+    name = "holding"
+
+    def process(self, dt: float) -> None:
+        pass
 
 
 def goals_of(scene: Scene, name: str) -> list[tuple]:
@@ -192,3 +202,23 @@ def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_proce
                            "--report", "json"], capture_output=True, text=True, timeout=120)  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["state_hash"] == straight["state_hash"]
+
+
+def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scenes):
+    import socket
+
+    from twig_ecs.systems.integrate import integrate_nodes
+
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    holding = scene.add_system(Holding(), after="collide")
+    holding.kept = integrate_nodes
+    restored = Scene.restore(scene.snapshot())
+    scenes.append(restored)
+    (copy,) = [s for s in restored.schedule.systems() if isinstance(s, Holding)]
+    assert copy.kept is integrate_nodes and copy.scene is restored
+    assert read_meta(scene.snapshot())["plugins"] == [{"module": __name__, "file": __file__}]
+    with socket.socket() as sock:
+        holding.kept = sock
+        with pytest.raises(SnapshotError, match="cannot snapshot a socket"):
+            scene.snapshot()
