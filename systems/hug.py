@@ -33,7 +33,7 @@ class Hug(Behavior):
     goal_driven = True
     params = {"target": None, "duration": 2.0}
     required = ("target",)
-    kinds = {"target": "entity", "duration": "seconds"}
+    kinds = {"target": "figure", "duration": "seconds"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release."""

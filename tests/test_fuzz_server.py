@@ -232,6 +232,7 @@ def _expected_answers(obj) -> int:
 @example([{"jsonrpc": "2.0", "id": 1e400, "method": "ping"}])
 @example(_call("do", character="parent", behavior="hug", params={"target": [1, 2]}))
 @example(_call("do", character="parent", behavior="carry", params={"target": "ball", "hand": 3}))
+@example(_call("grapple", character="big_child", target="merry_go_round"))
 @example(_call("do", character="parent", behavior="freeze", params={"on_end": "x", "duration": 1}))
 @example(_call("do", character="parent", behavior="sit", params={"behavior": "x", "character": "y"}))
 @example(_call("spawn", template="ball", position=[0, 1e300, 0]))

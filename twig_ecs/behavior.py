@@ -115,7 +115,7 @@ class Behavior(System):
     #: The parameters a goal must be given.
     required: ClassVar[tuple[str, ...]] = ()
     #: What each parameter must be, checked when the goal is queued (see :data:`PARAM_KINDS`):
-    #: ``"entity"``, ``"place"``, ``"seconds"``, ``"metres"``, ``"speed"``, ``"vector"``,
+    #: ``"entity"``, ``"figure"``, ``"place"``, ``"seconds"``, ``"metres"``, ``"speed"``, ``"vector"``,
     #: ``"flag"`` or a tuple of allowed values. Unlisted parameters are not checked.
     kinds: ClassVar[dict[str, Any]] = {}
     #: For a behaviour that characters *have* (rather than are commanded to do): the
@@ -172,6 +172,7 @@ class Behavior(System):
 #: Goal parameter kinds (a Behavior's ``kinds``) and what they accept.
 PARAM_KINDS = {
     "entity": "an entity name",
+    "figure": "the name of an entity with a head (a character or a ragdoll)",
     "place": "an entity name or a point [x, y, z] ([x, z] on the ground)",
     "seconds": "a duration in seconds (0 to 3600)",
     "metres": "a distance in metres (0 to 1000)",

@@ -114,7 +114,7 @@ def _vector(value: Any, what: str, size: int = 3) -> np.ndarray:
 _PARAM_RANGES = {"seconds": (0.0, 3600.0), "metres": (0.0, 1000.0), "speed": (0.0, 100.0)}
 
 
-def _goal_param(behavior: str, key: str, kind: Any, value: Any) -> Any:
+def _goal_param(scene: Scene, behavior: str, key: str, kind: Any, value: Any) -> Any:
     """A goal parameter checked against its kind (Behavior.kinds); TwigError saying what it must be.
 
     Goals arrive from scripts and over RPC (``do``) with any JSON in them; a wrong type must
@@ -127,9 +127,11 @@ def _goal_param(behavior: str, key: str, kind: Any, value: Any) -> Any:
         if value not in kind:
             raise TwigError(f"{where} must be one of {', '.join(map(repr, kind))}, got {value!r}")
         return value
-    if kind == "entity" and not isinstance(value, str):
+    if kind in ("entity", "figure") and not isinstance(value, str):
         raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
-    if kind in ("entity", "place"):
+    if kind == "figure" and "head" not in scene.entity(value).node_names:
+        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}; '{value}' has none")
+    if kind in ("entity", "figure", "place"):
         return value  # names and points were checked above
     if kind == "vector":
         return tuple(_vector(value, where))
@@ -553,7 +555,7 @@ class CharacterHandle(BodyHandle):
                 merged[key] = tuple(_vector(value, f"{behavior} {key}"))
         for key, kind in system.kinds.items():
             if merged.get(key) is not None or system.params.get(key) is not None:
-                merged[key] = _goal_param(behavior, key, kind, merged.get(key))
+                merged[key] = _goal_param(self.scene, behavior, key, kind, merged.get(key))
         goal = Goal(behavior, merged, id=self.scene.new_goal_id(), on_end=on_end)
         self.mind.goals.append(goal)
         return goal
