@@ -1,7 +1,8 @@
 """Fuzzing the scene loader: any YAML, any structure, any mutation of the real scenes.
 
 Whatever the file holds, loading it either gives a scene or raises the loader's own
-:class:`SceneError` (file:line, where, what) - never another exception. The budget is
+:class:`SceneError` (file:line, where, what) - never another exception - and a scene
+that loads runs a few steps without one. The budget is
 fixed and the examples derandomized so CI is repeatable; run longer with
 ``TWIG_FUZZ_EXAMPLES=5000 python -m pytest tests/test_fuzz_scenes.py`` (docs/reliability.md).
 """
@@ -30,6 +31,8 @@ FUZZ = settings(
     database=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
+#: Steps a scene that loaded must then run without an exception.
+STEPS = 3
 BUILTIN_SCENES = {p.stem: yaml.safe_load(p.read_text()) for p in (builtin_dir() / "scenes").glob("*.yaml")}
 KEYS = SCENE_KEYS + ENTITY_KEYS + CHARACTER_KEYS + SETTINGS_KEYS + ("use", "route", "speed", "template")
 NAMES = ("humanoid", "ragdoll", "ball", "bench", "merry_go_round", "parent", "small_child", "big_child",
@@ -65,14 +68,17 @@ documents = st.fixed_dictionaries(
 
 
 def load_text(text: str | bytes) -> None:
-    """Load ``text`` as a scene file: a scene (closed at once) or SceneError, nothing else."""
+    """Load ``text`` as a scene file: a scene or SceneError, nothing else; a scene that loads runs."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "fuzz.yaml"
         path.write_bytes(text if isinstance(text, bytes) else text.encode("utf-8", "surrogatepass"))
         try:
-            Scene.load(path).close()
+            scene = Scene.load(path)
         except SceneError as exc:
             assert str(exc), "a SceneError says what is wrong"
+            return
+        with scene:
+            scene.step(STEPS)  # what loads must run: bad values are load errors, not step errors
 
 
 def dump(doc) -> str:
