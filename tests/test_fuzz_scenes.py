@@ -31,6 +31,7 @@ FUZZ = settings(
     database=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
+KID = "twig: 1\nentities:\n  - {name: k, body: humanoid, character: true, "
 #: Steps a scene that loaded must then run without an exception.
 STEPS = 3
 BUILTIN_SCENES = {p.stem: yaml.safe_load(p.read_text()) for p in (builtin_dir() / "scenes").glob("*.yaml")}
@@ -107,6 +108,8 @@ def test_any_yaml_value_loads_or_raises_scene_error(doc):
 @example("twig: 1\nentities:\n  - {name: a, body: ball, position: [1e999, 0, 0]}\n")
 @example("twig: 1\nentities:\n  - {name: a, body: humanoid, height: 1e-300, character: true}\n")
 @example("twig: 1\nsettings: {iterations: 100000000000000000000}\n")
+@example(KID + "behaviors: [{use: attachment, caregiver: 5}]}\n")  # loaded, then failed in a step
+@example(KID + "behaviors: [{use: play, joy: x}]}\n")
 def test_raw_text_and_bytes_load_or_raise_scene_error(text):
     load_text(text)
 
