@@ -274,7 +274,15 @@ def resolve_contacts(
         # resolve at most half the thinner radius per pass: a limb found deep inside
         # another (fast motion, crossed segments with an unreliable normal) is eased
         # out over a few passes instead of being flung out in one
-        lam = min(depth, 0.5 * min(col_r[i], col_r[j])) / w
+        cap = 0.5 * min(col_r[i], col_r[j])
+        lam = min(depth, cap) / w
+        # and no node moves further than that either: a contact right by a capsule's
+        # pinned end (a planted foot) would otherwise swing its free end by depth/s -
+        # metres as s -> 0 - and drag the whole body after it (scaling lam keeps the
+        # correction equal and opposite)
+        most = max(sa * wa, s * wb, tc * wc, t * wd) * lam
+        if most > cap:
+            lam *= cap / most
         fa = lam * sa * wa
         fb = lam * s * wb
         fc = lam * tc * wc

@@ -306,5 +306,7 @@ class ConstrainSystem(System):
         n = links.count
         closing = (links.flags[:n] & LINK_GRAB) != 0
         if closing.any():
-            links.rest[:n][closing] = np.maximum(0.0, links.rest[:n][closing] - GRAB_CLOSING * dt)
+            links.rest[:n][closing] = np.maximum(
+                links.min_rest[:n][closing], links.rest[:n][closing] - GRAB_CLOSING * dt
+            )
         solve_constraints(self.scene.settings.iterations, *constraint_args(self.scene.state))

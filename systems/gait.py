@@ -39,6 +39,7 @@ REACH = 0.8  # of the longest step the legs allow at the pelvis's height
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
 STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
+FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -89,7 +90,8 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         hip_h = 0.5 * (pos[nd[L_HIP], 1] + pos[nd[L_HIP + 1], 1]) - radius[nd[L_FOOT]]
         most = math.sqrt(max(0.0, leg_length[c] ** 2 - hip_h * hip_h))
         reach = min(REACH * most, s * (STRIDE + STRIDE_PER_SPEED * speed))
-        t_step = STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)
+        # shorter legs step faster: a pendulum's period goes with the root of its length
+        t_step = (STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)) * math.sqrt(s)
         # which foot is furthest from where it belongs?
         best = -1
         best_need = 0.0
@@ -133,11 +135,26 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
                                + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
         side = half if best == 0 else -half
+        o = nd[L_FOOT + 1 - best]
         # lead by the pelvis's actual pace along the walk only: its sideways sway is
         # not where it is going
         along = max(0.0, vx * dx + vz * dz) * t_step + reach
         tx = pos[p, 0] + dx * along + side * lx
         tz = pos[p, 2] + dz * along + side * lz
+        # land at least most of a hip width to the side of the planted foot: a pelvis
+        # swaying over the stance leg would otherwise set the feet in one line, and
+        # the shins would knock together
+        gap = (tx - pos[o, 0]) * lx + (tz - pos[o, 2]) * lz
+        want = FOOT_GAP * half if side > 0.0 else -FOOT_GAP * half
+        if gap * want < want * want:
+            tx += (want - gap) * lx
+            tz += (want - gap) * lz
+        if (tx - pos[i, 0]) ** 2 + (tz - pos[i, 2]) ** 2 < (0.5 * reach) ** 2:
+            # a step that goes nowhere (twisted feet): step to the walk's side instead,
+            # or the foot would hop on the spot for ever
+            side = half if best == 0 else -half
+            tx = pos[p, 0] + dx * along + side * lx
+            tz = pos[p, 2] + dz * along + side * lz
         ty = radius[i]
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING

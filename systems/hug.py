@@ -16,6 +16,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import ground_distance
+from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
@@ -49,6 +50,7 @@ class Hug(Behavior):
                 m["phase"], m["since"] = "wrap", character.scene.time
             return
         if phase == "wrap":
+            now = character.scene.time
             # close in slowly while the arms go round
             if ground_distance(character.position, other.position) > CLOSE * scale:
                 toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
@@ -70,16 +72,17 @@ class Hug(Behavior):
                 if character.holding.get(hand) == target:
                     continue
                 character.reach(tuple(back), hand=hand)
-                node = ("l_hand", "r_hand")[hand == "right"]
-                if np.linalg.norm(character.node(node) - other.node(held)) < GRAB_REACH * scale:
+                grip = _within_reach(character, other, hand, held, late=now - m["since"] > 0.5 * WRAP_TIME)
+                if grip is not None:
+                    standoff = _surface(character, other, grip)
                     try:
-                        character.grab(target, hand=hand, node=held)
+                        character.grab(target, hand=hand, node=grip, standoff=standoff)
                         character.pose("hug", hand=hand)
                     except TwigError:
                         pass
             if all(character.holding.get(h) == target for h in hands):
-                m["phase"], m["since"] = "hold", character.scene.time
-            elif character.scene.time - m["since"] > WRAP_TIME:
+                m["phase"], m["since"] = "hold", now
+            elif now - m["since"] > WRAP_TIME:
                 self.finish(character, goal, False, "could not get its arms round")
             return
         # hold: the arms go slack (the grab joints keep the hands on its back) and the
@@ -91,7 +94,7 @@ class Hug(Behavior):
         else:
             character.stop()
         for hand in m["hands"]:
-            character.pose("hang", hand=hand)
+            character.pose("hug", hand=hand)
         toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
         character.lean(toward * LEAN_IN * scale)
@@ -116,6 +119,32 @@ class Hug(Behavior):
                 character.release(hand)
         character.stop()
         character.look_at(None)
+
+
+def _within_reach(character, other, hand: str, held: str, late: bool) -> str | None:
+    """The node of ``other`` that ``hand`` can grip now: the one behind its back, or late
+    in the wrap (a short arm, one hand round a grown-up) the nearer of its hips."""
+    palm = character.node(("l_hand", "r_hand")[hand == "right"])
+    reach = GRAB_REACH * character.scale
+    candidates = (held, "l_hip", "r_hip") if late and held == "pelvis" else (held,)
+    if late and held == "spine":
+        candidates = (held, "l_shoulder", "r_shoulder")
+    best = min(candidates, key=lambda n: float(np.linalg.norm(palm - other.node(n))))
+    return best if np.linalg.norm(palm - other.node(best)) < reach else None
+
+
+def _surface(character, other, node: str) -> float:
+    """How far from ``other``'s ``node`` a hand rests on its surface: the thickest
+    capsule at that node plus the forearm's."""
+    links = character.scene.state.links
+    rows = np.arange(links.count)
+    collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
+    a, b = links.a[: links.count], links.b[: links.count]
+    at, hand = other._row(node), character._row("r_hand")
+    body = collide & ((a == at) | (b == at))
+    arm = collide & ((a == hand) | (b == hand))
+    thick = float(links.radius[rows[body]].max()) if body.any() else 0.0
+    return thick + (float(links.radius[rows[arm]].max()) if arm.any() else 0.0)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

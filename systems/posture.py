@@ -55,6 +55,7 @@ MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
 MAX_YAW_ACC = 600.0  # rad/s^2
+FOLDED = 0.3  # chest lower than this many torso lengths above the pelvis: folded over
 
 TORSO = (PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_SHOULDER, R_SHOULDER)
 LOWER = (PELVIS, SPINE, NECK, L_HIP, R_HIP)
@@ -131,16 +132,30 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
             tx = pos[p, 0] + LEAN * wx + lean[c, 0]
             tz = pos[p, 2] + LEAN * wz + lean[c, 2]
         vnx = (pos[n, 0] - prev[n, 0]) / dt - vpx
+        vny = (pos[n, 1] - prev[n, 1]) / dt - vpy
         vnz = (pos[n, 2] - prev[n, 2]) / dt - vpz
+        uy = 0.0
+        torso = math.sqrt((pos[n, 0] - pos[p, 0]) ** 2 + (pos[n, 1] - pos[p, 1]) ** 2
+                          + (pos[n, 2] - pos[p, 2]) ** 2)
+        if pos[n, 1] < pos[p, 1] + FOLDED * torso:
+            # folded over or hanging upside down (pulled down by something held, say):
+            # holding the chest over the pelvis horizontally would hold it just as well
+            # straight below, so lift it and swing it up in front
+            hfx, hfz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
+            tx = pos[p, 0] + 0.5 * torso * hfx
+            tz = pos[p, 2] + 0.5 * torso * hfz
+            uy = clamp(UPRIGHT_GAIN * (pos[p, 1] + torso - pos[n, 1]) - UPRIGHT_DAMP * vny, -MAX_ACC, MAX_ACC)
         ux = clamp(UPRIGHT_GAIN * (tx - pos[n, 0]) - UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
         uz = clamp(UPRIGHT_GAIN * (tz - pos[n, 2]) - UPRIGHT_DAMP * vnz, -MAX_ACC, MAX_ACC)
         m_up = mass[n] + mass[nd[L_SHOULDER]] + mass[nd[R_SHOULDER]] + mass[nd[HEAD]]
         m_low = mass[p] + mass[nd[L_HIP]] + mass[nd[R_HIP]]
         for role in (NECK, L_SHOULDER, R_SHOULDER, HEAD):
             acc[nd[role], 0] += ux
+            acc[nd[role], 1] += uy
             acc[nd[role], 2] += uz
         for role in (PELVIS, L_HIP, R_HIP):  # equal and opposite: a torque, no net push
             acc[nd[role], 0] -= ux * m_up / m_low
+            acc[nd[role], 1] -= uy * m_up / m_low
             acc[nd[role], 2] -= uz * m_up / m_low
 
         # -- pelvis yaw to the walk direction (else hold still)

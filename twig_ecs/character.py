@@ -440,12 +440,13 @@ class CharacterHandle(BodyHandle):
         else:
             raise TwigError(f"unknown gesture '{name}'" + suggest(str(name), GESTURES))
 
-    def grab(self, target: str, hand: str = "right", node: str | None = None) -> None:
+    def grab(self, target: str, hand: str = "right", node: str | None = None, standoff: float = 0.0) -> None:
         """Hold ``target`` in a hand with a ball joint (the hand must be near it: reach first).
 
-        The nearest node of the target is taken unless ``node`` names one. A hand that
-        was reaching for it then holds it up in front of the body (carry); a hanging
-        arm just keeps hanging, holding it.
+        The nearest node of the target is taken unless ``node`` names one; ``standoff``
+        (m) keeps the hand that far from the node (on the surface of a torso, say). A
+        hand that was reaching for it then holds it up in front of the body (carry); a
+        hanging arm just keeps hanging, holding it.
         """
         (h,) = self._hands(hand) if hand != "both" else (None,)
         if h is None:
@@ -469,7 +470,7 @@ class CharacterHandle(BodyHandle):
         if distance > reach:
             raise TwigError(f"'{target}' is {distance:.2f} m from the {hand_name} hand of '{self.name}' "
                             f"(grabbing needs {reach:.2f} m or less): reach for it first")  # fmt: skip
-        grab = self.scene.grab(self.name, ("l_hand", "r_hand")[h], target, node)
+        grab = self.scene.grab(self.name, ("l_hand", "r_hand")[h], target, node, standoff)
         self.character.holding[hand_name] = grab
         ch = self._chars()
         if ch.arm_mode[self._crow, h] == REACH:  # fetched it: hold it up in front

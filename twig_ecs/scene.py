@@ -32,6 +32,9 @@ from twig_ecs.store import LINK_GRAB, PhysicsState
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
+#: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
+RELEASE_GRACE_STEPS = 20
+
 _world_ids = itertools.count(1)
 
 
@@ -231,11 +234,12 @@ class Scene:
 
     # -- grab joints --------------------------------------------------------------------
 
-    def grab(self, holder: str, node: str, target: str, target_node: str) -> int:
-        """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a zero-length link.
+    def grab(self, holder: str, node: str, target: str, target_node: str, standoff: float = 0.0) -> int:
+        """Join ``holder``'s ``node`` to ``target``'s ``target_node`` with a link that closes.
 
         The two nodes are drawn together by the constraint solver over a few steps and
-        then held (a ball joint, SPEC 3).
+        then held (a ball joint, SPEC 3) - at ``standoff`` metres apart when that is
+        given: a hand on the surface of a torso rather than at the node inside it.
         Returns the grab joint's entity; :meth:`release` removes it.
         """
         self.activate()
@@ -249,6 +253,7 @@ class Scene:
         # the joint starts at the nodes' distance and closes at GRAB_CLOSING m/s (see
         # ConstrainSystem): a hand pulls the thing in, it does not snap to it
         links.rest[row] = float(np.linalg.norm(self.state.nodes.pos[a] - self.state.nodes.pos[b]))
+        links.min_rest[row] = max(0.0, float(standoff))
         links.flags[row] = LINK_GRAB
         links.body[row] = h.body.index
         entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
@@ -265,6 +270,8 @@ class Scene:
         if joint is None:
             raise TwigError(f"no grab joint {grab}")
         links = self.state.links
+        # the hand slides back out of what it held without being flung off it
+        self.state.release_grace(links.a[joint.index], links.b[joint.index], RELEASE_GRACE_STEPS)
         keep = np.ones(links.count, dtype=bool)
         keep[joint.index] = False
         remap = links.keep(keep)
@@ -329,6 +336,7 @@ class Scene:
             self._install()
         ensure_compiled()
         for _ in range(n):
+            self.state.tick_released()
             if self.state.colliders_dirty:
                 self.state.rebuild_colliders()
             self.events.clear()

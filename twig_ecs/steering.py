@@ -48,9 +48,10 @@ def approach_velocity(position: np.ndarray, goal: np.ndarray, obstacles: np.ndar
             if params.curl:
                 push += np.stack([-off[:, 2], np.zeros(len(off)), off[:, 0]], axis=1)  # off x e_y
             r = (params.repulsion * push / np.maximum(params.min_sq, sq)[:, None]).sum(axis=0)
-            # near the goal the push fades, so a crowd round the target cannot hold one
-            # off a metre short
-            r *= min(1.0, dist / params.fade)
+            # near the goal the push fades (quadratically: a grown-up standing by a ball
+            # would otherwise keep a child circling it), so a crowd round the target
+            # cannot hold one off a metre short
+            r *= min(1.0, dist / params.fade) ** 2
     w = a + r
     speed = float(np.linalg.norm(w))
     if speed > params.speed:

@@ -59,6 +59,7 @@ LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "a": (np.int32, (), -1),
     "b": (np.int32, (), -1),
     "rest": (np.float64, (), 0.0),
+    "min_rest": (np.float64, (), 0.0),  # a grab joint closes down to this length (its standoff)
     "radius": (np.float64, (), 0.0),
     "flags": (np.uint32, (), 0),
     "group": (np.int32, (), 0),  # self-collision group (0: collides with any link of its body)
@@ -238,6 +239,9 @@ class PhysicsState:
         self.pairs = np.zeros((64, 2), dtype=np.int32)
         #: Per-step statistics written by the kernels: [max residual penetration (m)].
         self.stats = np.zeros(4, dtype=np.float64)
+        #: Grab joints let go of lately, as [node a, node b, steps left]: the arm and what
+        #: it held keep ignoring each other for a moment while the arm draws back out
+        self.released: list[list[int]] = []
 
     # -- growth -----------------------------------------------------------------
 
@@ -285,6 +289,8 @@ class PhysicsState:
         for name in ("nodes", "arm_node", "gaze_node"):
             _remap(ch.arrays[name][: ch.count].reshape(-1), node_map)
         _remap(ch.breath_links[: ch.count].reshape(-1), link_map)
+        self.released = [[int(node_map[a]), int(node_map[b]), left] for a, b, left in self.released
+                         if node_map[a] >= 0 and node_map[b] >= 0]  # fmt: skip
         self.rebuild_colliders()
         self.version += 1
         return {"nodes": node_map, "links": link_map, "bodies": body_map, "characters": char_map}
@@ -345,17 +351,55 @@ class PhysicsState:
                     if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
-        # a held thing and the hand that holds it do not push each other apart
+        # a held thing and the hand that holds it do not push each other apart; nor does
+        # a carried thing (not a character) collide with its carrier anywhere, else a
+        # child steps on the doll it carries, pins it under a planted foot and is pulled
+        # over by its own arm
         grabs = np.flatnonzero(lk.flags[: lk.count] & LINK_GRAB)
-        for g in grabs:
-            a, b = int(lk.a[g]), int(lk.b[g])
+        ch = self.characters
+        characters = set(ch.body[: ch.count].tolist())
+        # the whole arm that holds something, not just the hand: an arm round a body
+        # (a hug) is squeezed between the hand's joint and the shoulder otherwise
+        elbow_of = {}
+        for c in range(ch.count):
+            for hand, elbow in ((ROLES.index("l_hand"), ROLES.index("l_elbow")),
+                                (ROLES.index("r_hand"), ROLES.index("r_elbow"))):  # fmt: skip
+                elbow_of[int(ch.nodes[c, hand])] = int(ch.nodes[c, elbow])
+        held_pairs = [(int(lk.a[g]), int(lk.b[g]), True) for g in grabs]
+        held_pairs += [(a, b, False) for a, b, _ in self.released]
+        for a, b, live in held_pairs:
             ba, bb = int(n.body[a]), int(n.body[b])
+            arm_a = {a, elbow_of.get(a, a)}
+            arm_b = {b, elbow_of.get(b, b)}
             for c in range(total):
-                if int(col.a[c]) == a or int(col.b[c]) == a:
+                if int(col.a[c]) in arm_a or int(col.b[c]) in arm_a:
                     col.ignore[c] = bb
-                elif int(col.a[c]) == b or int(col.b[c]) == b:
+                elif int(col.a[c]) in arm_b or int(col.b[c]) in arm_b:
                     col.ignore[c] = ba
+            if not live:
+                continue
+            for holder, held in ((ba, bb), (bb, ba)):
+                if held not in characters:
+                    mine = (col.body[:total] == holder) & (col.ignore[:total] == -1)
+                    col.ignore[:total][mine] = held
         self.version += 1
+
+    def release_grace(self, a: int, b: int, steps: int) -> None:
+        """Keep the arm at node ``a`` and the body of node ``b`` (or the other way round)
+        from colliding for ``steps`` more steps after their grab joint is gone."""
+        self.released.append([int(a), int(b), int(steps)])
+        self.colliders_dirty = True
+
+    def tick_released(self) -> None:
+        """Count down the grace of released grabs; the collider table is rebuilt as one ends."""
+        if not self.released:
+            return
+        for entry in self.released:
+            entry[2] -= 1
+        before = len(self.released)
+        self.released = [e for e in self.released if e[2] > 0]
+        if len(self.released) != before:
+            self.colliders_dirty = True
 
     # -- read-outs ------------------------------------------------------------------
 
