@@ -106,6 +106,8 @@ class Approach(Behavior):
     goal_driven = True
     params = {"target": None, "stop_distance": 0.6, "direction": None, "arms": None, "curl": True}
     required = ("target",)
+    kinds = {"target": "place", "stop_distance": "metres", "direction": "vector",
+             "arms": (None, "reach", "hug", "grapple"), "curl": "flag"}  # fmt: skip
 
     def act(self, character, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Steer; look at the target; hold the arms as asked (reach, hug or grapple)."""

@@ -10,6 +10,8 @@ anxiety drops to zero and play resumes.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import esper
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -20,6 +22,20 @@ GLANCE = 1.0  # s a look back lasts
 GLANCE_EVERY = 5.0  # s at least between look-backs
 LOOK_BACK = 0.7  # activation of a glance: above play
 RUN_HOME = 1.0  # activation of running back: above play and fights, below pain
+
+
+@dataclass
+class Soothe:
+    """A run-home hug's ``on_end``: a hug that reached the caregiver calms the child.
+
+    A small class rather than a closure, so a snapshot of the scene can keep it.
+    """
+
+    attachment: Attachment
+
+    def __call__(self, done: Goal) -> None:
+        if done.status == "done":
+            self.attachment.anxiety, self.attachment.hugs = 0.0, self.attachment.hugs + 1
 
 
 @register
@@ -82,12 +98,7 @@ class AttachmentBehavior(Behavior):
         """Glance: stand and look at the caregiver. Anxious: queue a hug and go."""
         attachment = self.settings(character)
         if attachment.anxiety >= attachment.return_at:
-
-            def soothed(done: Goal, a=attachment) -> None:
-                if done.status == "done":
-                    a.anxiety, a.hugs = 0.0, a.hugs + 1
-
-            character.hug(attachment.caregiver, duration=1.5, on_end=soothed)
+            character.hug(attachment.caregiver, duration=1.5, on_end=Soothe(attachment))
             self.glance_until.pop(character.entity, None)
             return
         character.stop()

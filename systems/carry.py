@@ -57,6 +57,7 @@ class Carry(Behavior):
     goal_driven = True
     params = {"target": None, "to": None, "hand": "right"}
     required = ("target",)
+    kinds = {"target": "entity", "to": "place", "hand": ("left", "right")}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk to the destination."""
@@ -88,6 +89,7 @@ class Drag(Behavior):
     goal_driven = True
     params = {"target": None, "distance": 5.0, "hand": "right", "speed": 1.0}
     required = ("target",)
+    kinds = {"target": "entity", "distance": "metres", "hand": ("left", "right"), "speed": "speed"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk away from where it lay."""

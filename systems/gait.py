@@ -40,7 +40,6 @@ STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip ste
 STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
-GROUND_SLACK = 0.02  # m above its resting height at which a foot still counts as on the ground
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -71,10 +70,7 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             if flags[i] & NODE_LOCKED and move_time[i] > 0.0:  # landed early
                 move_time[i] = 0.0
                 flags[i] &= ~np.uint32(NODE_MOVING)
-            # only on the ground: a foot locked in place on a deck that turns (or on a
-            # doll that slides) would be dragged through it
-            grounded = pos[i, 1] <= radius[i] + GROUND_SLACK
-            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED and grounded:
+            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED:
                 flags[i] |= NODE_LOCKED
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
                 for k in range(3):
@@ -102,8 +98,8 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         for f in range(2):
             i = nd[L_FOOT + f]
             h = nd[L_HIP + f]
-            if not flags[i] & NODE_LOCKED and not (flags[i] & NODE_IN_CONTACT and swing[c, f] == 0.0):
-                continue  # mid-step (a foot standing on something, unlocked, may step off it)
+            if not flags[i] & NODE_LOCKED:
+                continue
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
             # a leg close to straight must step whatever else: a locked foot at the end

@@ -28,6 +28,7 @@ class Grapple(Behavior):
     goal_driven = True
     params = {"target": None, "duration": 3.0}
     required = ("target",)
+    kinds = {"target": "figure", "duration": "seconds"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Close in, then punch left and right in turn."""

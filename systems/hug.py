@@ -34,6 +34,7 @@ class Hug(Behavior):
     goal_driven = True
     params = {"target": None, "duration": 2.0}
     required = ("target",)
+    kinds = {"target": "figure", "duration": "seconds"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release."""

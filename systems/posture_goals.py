@@ -23,6 +23,7 @@ class SitDown(Behavior):
     name = "sit"
     goal_driven = True
     params = {"on": None}
+    kinds = {"on": "entity"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach the seat if needed, then sit; done once the pelvis rests."""
@@ -66,6 +67,7 @@ class Freeze(Behavior):
     name = "freeze"
     goal_driven = True
     params = {"duration": None}
+    kinds = {"duration": "seconds"}
 
     def start(self, character, goal: Goal | None) -> None:
         """Lock every node."""
@@ -93,6 +95,7 @@ class Gesture(Behavior):
     goal_driven = True
     params = {"name": None, "target": None, "duration": 2.0}
     required = ("name",)
+    kinds = {"name": ("wave", "point"), "target": "place", "duration": "seconds"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Hold the gesture; done after the duration."""

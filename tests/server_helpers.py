@@ -34,8 +34,12 @@ def running_server(
     autonomous: bool = True,
     window: bool = False,
     timeout: float = 60.0,
+    record: str | None = None,
 ) -> Iterator[Running]:
-    """Serve ``scene`` on 127.0.0.1 (ephemeral ports) in a thread until the block ends."""
+    """Serve ``scene`` on 127.0.0.1 (ephemeral ports) in a thread until the block ends.
+
+    ``record``: a replay file to log the applied commands to (as ``twig serve --record``).
+    """
     ready = threading.Event()
     box: dict = {}
 
@@ -50,6 +54,11 @@ def running_server(
             else:
                 loaded = Scene.load(scene, seed=seed)
             try:
+                recorder = None
+                if record is not None:
+                    from twig_ecs.replay import Recorder
+
+                    recorder = Recorder(record, scene, seed, (), autonomous)
                 server = Server(
                     loaded,
                     port=0,
@@ -59,6 +68,7 @@ def running_server(
                     autonomous=autonomous,
                     window=shown,
                     log=lambda text: box.setdefault("log", []).append(text),
+                    recorder=recorder,
                 )
             except BaseException:
                 (shown or loaded).close()

@@ -50,13 +50,13 @@ GOOD_BODY = """
         pytest.param(
             "twig: 1\nentities:\n  - name: a\n    body: humanoid\n    height: tall\n",
             5,
-            ["entities[0].height", "expected a number greater than 0", "got 'tall' (str)"],
+            ["entities[0].height", "expected a number from 0.01 to 100", "got 'tall' (str)"],
             id="wrong-type",
         ),
         pytest.param(
             "twig: 1\nentities:\n  - name: a\n    body: humanoid\n    height: -1.2\n",
             5,
-            ["entities[0].height", "greater than 0"],
+            ["entities[0].height", "a number from 0.01 to 100"],
             id="negative-height",
         ),
         pytest.param(
@@ -191,7 +191,7 @@ def test_spawn_with_bad_parameters_raises_and_leaves_the_world_intact(empty_scen
     before = (scene.state.nodes.count, scene.state.links.count, scene.entity_names)
     with pytest.raises(SceneError, match="unknown template 'humanod'"):
         scene.spawn("humanod", name="x")
-    with pytest.raises(SceneError, match="height.*greater than 0"):
+    with pytest.raises(SceneError, match="height.*a number from 0.01 to 100"):
         scene.spawn("humanoid", name="y", height=-1)
     with pytest.raises(SceneError, match="already exists"):
         scene.spawn("ball", name="b")

@@ -114,6 +114,10 @@ class Behavior(System):
     params: ClassVar[dict[str, Any]] = {}
     #: The parameters a goal must be given.
     required: ClassVar[tuple[str, ...]] = ()
+    #: What each parameter must be, checked when the goal is queued (see :data:`PARAM_KINDS`):
+    #: ``"entity"``, ``"figure"``, ``"place"``, ``"seconds"``, ``"metres"``, ``"speed"``, ``"vector"``,
+    #: ``"flag"`` or a tuple of allowed values. Unlisted parameters are not checked.
+    kinds: ClassVar[dict[str, Any]] = {}
     #: For a behaviour that characters *have* (rather than are commanded to do): the
     #: component type holding its per-character parameters (a dataclass). Only
     #: characters with that component are considered; scenes attach it with
@@ -188,6 +192,19 @@ class Behavior(System):
     def finish(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """End ``goal`` (done or failed) and report it."""
         character.scene.end_goal(character, goal, ok, reason)
+
+
+#: Goal parameter kinds (a Behavior's ``kinds``) and what they accept.
+PARAM_KINDS = {
+    "entity": "an entity name",
+    "figure": "the name of an entity with a head (a character or a ragdoll)",
+    "place": "an entity name or a point [x, y, z] ([x, z] on the ground)",
+    "seconds": "a duration in seconds (0 to 3600)",
+    "metres": "a distance in metres (0 to 1000)",
+    "speed": "a speed in m/s (0 to 100)",
+    "vector": "a vector [x, y, z] ([x, z] on the ground)",
+    "flag": "true or false",
+}
 
 
 #: Behaviour kinds by name: the systems that implement them (filled by register()).

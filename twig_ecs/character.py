@@ -110,6 +110,41 @@ def _vector(value: Any, what: str, size: int = 3) -> np.ndarray:
     return v
 
 
+#: Bounds of the number kinds of goal parameters.
+_PARAM_RANGES = {"seconds": (0.0, 3600.0), "metres": (0.0, 1000.0), "speed": (0.0, 100.0)}
+
+
+def _goal_param(scene: Scene, behavior: str, key: str, kind: Any, value: Any) -> Any:
+    """A goal parameter checked against its kind (Behavior.kinds); TwigError saying what it must be.
+
+    Goals arrive from scripts and over RPC (``do``) with any JSON in them; a wrong type must
+    fail here, when the goal is queued, not later inside a step.
+    """
+    from twig_ecs.behavior import PARAM_KINDS
+
+    where = f"{behavior}: '{key}'"
+    if isinstance(kind, tuple):
+        if value not in kind:
+            raise TwigError(f"{where} must be one of {', '.join(map(repr, kind))}, got {value!r}")
+        return value
+    if kind in ("entity", "figure") and not isinstance(value, str):
+        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
+    if kind == "figure" and "head" not in scene.entity(value).node_names:
+        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}; '{value}' has none")
+    if kind in ("entity", "figure", "place"):
+        return value  # names and points were checked above
+    if kind == "vector":
+        return tuple(_vector(value, where))
+    if kind == "flag":
+        if not isinstance(value, bool):
+            raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
+        return value
+    low, high = _PARAM_RANGES[kind]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not low <= value <= high:
+        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
+    return float(value)
+
+
 class CharacterHandle(BodyHandle):
     """A character: the body read-outs plus the control API of SPEC 3.
 
@@ -490,11 +525,14 @@ class CharacterHandle(BodyHandle):
         """Queued goals, the current one first."""
         return list(self.mind.goals)
 
-    def do(self, behavior: str, on_end=None, **params):
+    def do(self, behavior: str, /, on_end=None, **params):
         """Queue a goal for behaviour ``behavior`` (approach, hug, grapple, carry, drag, sit,
         stand, freeze, gesture, or a plug-in's) and return it; it reports ``goal.done`` or
         ``goal.failed`` events and calls ``on_end(goal)`` when it ends."""
         from twig_ecs.behavior import Goal
+
+        if on_end is not None and not callable(on_end):
+            raise TwigError(f"{behavior}: on_end must be a function of the goal, got {on_end!r}")
 
         system = self.scene.behaviors.get(behavior)
         if system is None or not system.goal_driven:
@@ -516,7 +554,10 @@ class CharacterHandle(BodyHandle):
                 self.scene.entity(value)  # KeyError with suggestions if unknown
             elif value is not None:
                 merged[key] = tuple(_vector(value, f"{behavior} {key}"))
-        goal = Goal(behavior, merged, on_end=on_end)
+        for key, kind in system.kinds.items():
+            if merged.get(key) is not None or system.params.get(key) is not None:
+                merged[key] = _goal_param(self.scene, behavior, key, kind, merged.get(key))
+        goal = Goal(behavior, merged, id=self.scene.new_goal_id(), on_end=on_end)
         self.mind.goals.append(goal)
         self.scene.note_goal(self.entity, self.mind)  # goal-driven behaviours look only at these
         return goal

@@ -11,9 +11,14 @@ from collections.abc import Sequence
 from twig_ecs.errors import TwigError
 
 
-def _add_scene_args(p: argparse.ArgumentParser, scene_default: str | None = None) -> None:
+def _add_scene_args(
+    p: argparse.ArgumentParser, scene_default: str | None = None, scene_optional: bool = False
+) -> None:
     """The arguments every scene-running command shares: SCENE, --seed, --content."""
-    if scene_default is None:
+    if scene_optional:
+        p.add_argument("scene", nargs="?", default=None,
+                       help="a scene .yaml file or a built-in name (schoolyard, empty)")  # fmt: skip
+    elif scene_default is None:
         p.add_argument("scene", help="a scene .yaml file or a built-in name (schoolyard, empty)")
     else:
         p.add_argument("scene", nargs="?", default=scene_default,
@@ -81,12 +86,23 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    """Run a scene headless for some seconds; optionally print a JSON report."""
+    """Run a scene headless for some seconds; optionally soak-check it, save or load a snapshot, replay."""
     from twig_ecs.report import run_with_report
 
+    if args.replay:
+        return _replay(args)
+    if (args.scene is None) == (args.load is None):
+        raise TwigError("give a SCENE to run, or --load a snapshot (not both)")
+    limits = _soak_limits(args)
+    scene = None
+    if args.load:
+        from twig_ecs.snapshot import load
+
+        scene = load(args.load)
     report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
                              progress=args.report != "json" and sys.stderr.isatty(), trace=args.trace,
-                             plot=args.plot, parameters=args.parameters)  # fmt: skip
+                             plot=args.plot, parameters=args.parameters, limits=limits, scene=scene,
+                             save=args.save)  # fmt: skip
     if args.report == "json":
         print(json.dumps(report, indent=2))
     else:
@@ -95,6 +111,18 @@ def cmd_run(args: argparse.Namespace) -> int:
               f"max link error {report['max_link_error'] * 100:.2f}%, "
               f"max penetration {report['max_penetration_m'] * 100:.2f} cm, "
               f"nan: {str(report['nan']).lower()}, state {report['state_hash']}")  # fmt: skip
+        if limits is not None:
+            min_y = report["min_node_y"]
+            print(f"soak: max speed {report['max_speed_m_s']:.2f} m/s, "
+                  f"min node y {'-' if min_y is None else f'{min_y:.4f}'} m, "
+                  f"max penetration {report['max_penetration_m']:.4f} m, "
+                  f"max link error {report['max_link_error']:.3f}, "
+                  f"max kinetic energy {report['max_kinetic_energy_j']:.1f} J")  # fmt: skip
+        if args.save:
+            print(f"saved snapshot at t={report['seconds']:.2f} s to {args.save}")
+    if limits is not None and report["violation"]:
+        print(f"soak failed: {report['violation']['message']}", file=sys.stderr)
+        return 1
     return 1 if report["nan"] else 0
 
 
@@ -121,6 +149,50 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 1 if any(r["nan"] for r in report["cases"]) else 0
 
 
+def _soak_limits(args: argparse.Namespace):
+    """SoakLimits from --soak and the limit flags (any limit flag implies --soak), or None."""
+    from dataclasses import replace
+
+    from twig_ecs.soak import SoakLimits, limit_names
+
+    given = {name: getattr(args, name) for name in limit_names() if getattr(args, name) is not None}
+    if not (args.soak or given):
+        return None
+    return replace(SoakLimits(), **given)
+
+
+def _replay(args: argparse.Namespace) -> int:
+    """Replay a recorded server session (``--replay FILE``); 0 when it ends in the recorded state."""
+    from twig_ecs.replay import replay
+
+    result = replay(args.replay)
+    if args.report == "json":
+        print(json.dumps(result, indent=2))
+    else:
+        verdict = "same as recorded" if result["match"] else "DIFFERS from the recorded"
+        print(f"{result['scene']}: replayed {result['commands']} commands over {result['frames']} frames; "
+              f"state {result['state_hash']} ({verdict} {result['recorded_state_hash']})")  # fmt: skip
+        if result["diverged"]:
+            diverged = result["diverged"]
+            print(f"{diverged} command(s) succeeded or failed unlike the recording", file=sys.stderr)
+    return 0 if result["match"] else 1
+
+
+def _add_soak_args(p: argparse.ArgumentParser) -> None:
+    from twig_ecs.soak import SoakLimits
+
+    d = SoakLimits()
+    g = p.add_argument_group("soak", "check physics health at every step; exit 1 at the first limit crossed")
+    g.add_argument("--soak", action="store_true", help="enforce the limits below (defaults in brackets)")
+    for flag, name, unit in (("--max-speed", "max_speed", "m/s, any node"),
+                             ("--min-y", "min_y", "m, lowest node"),
+                             ("--max-penetration", "max_penetration", "m, capsule overlap after a step"),
+                             ("--max-link-error", "max_link_error", "|len-rest|/rest"),
+                             ("--max-energy", "max_energy", "J, kinetic energy of the world")):  # fmt: skip
+        g.add_argument(flag, dest=name, type=float, default=None, metavar="X",
+                       help=f"{unit} [{getattr(d, name):g}]")  # fmt: skip
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``twig``."""
     parser = argparse.ArgumentParser(
@@ -139,11 +211,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("run", help="run a scene headless and report on it")
-    _add_scene_args(p)
+    _add_scene_args(p, scene_optional=True)
     p.add_argument("--seconds", type=_positive_seconds, default=10.0, help="simulated seconds (default 10)")
     p.add_argument("--report", choices=["text", "json"], default="text", help="report format")
     p.add_argument("--trace", metavar="FILE.csv", help="write a per-step trace of every character")
     p.add_argument("--plot", metavar="FILE.png", help="plot distance to caregiver and anxiety over time")
+    p.add_argument("--save", metavar="FILE", help="write a snapshot of the world at the end of the run")
+    p.add_argument("--load", metavar="FILE", help="start from a snapshot instead of a SCENE (--seconds more)")
+    p.add_argument("--replay", metavar="FILE", help="replay a session recorded by 'twig serve --record'")
+    _add_soak_args(p)
     p.set_defaults(func=cmd_run)
 
     from twig_ecs.bench.run import CASES, SIZES

@@ -21,6 +21,7 @@ from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.components import Body, Character, GrabJoint, Link, Memory, Name, Node
 from twig_ecs.errors import SceneError, TwigError
+from twig_ecs.esperworld import make_deterministic
 from twig_ecs.events import Event, Grabbed, Released
 from twig_ecs.handles import BodyHandle
 from twig_ecs.kernels import ensure_compiled
@@ -74,7 +75,9 @@ class Scene:
         # characters that were given goals (entity -> Mind), pruned when their goals run
         # out: goal-driven behaviours look only at these (see goal_holders)
         self._goal_holders: dict[int, Mind] = {}
+        self.goals_made = 0  # goal ids count per scene, so a restored or replayed scene numbers alike
         self.activate()
+        make_deterministic()
         from twig_ecs import systems as s
         from twig_ecs.behavior import load_builtin_behaviors
 
@@ -468,10 +471,37 @@ class Scene:
         name = esper.try_component(entity, Name)
         return name.value if name else None
 
+    def new_goal_id(self) -> int:
+        """A fresh goal id, unique within this scene (1, 2, 3...)."""
+        self.goals_made += 1
+        return self.goals_made
+
     def state_hash(self) -> str:
         """A hash of every node position: equal hashes mean equal trajectories so far."""
         n = self.state.nodes
         return hashlib.sha256(np.ascontiguousarray(n.pos[: n.count]).tobytes()).hexdigest()[:16]
+
+    # -- snapshots ---------------------------------------------------------------------
+
+    def snapshot(self) -> bytes:
+        """The whole world as bytes: store, components, systems, RNG, goals, grabs.
+
+        :meth:`restore` rebuilds it; the file layout is in :mod:`twig_ecs.snapshot`.
+        """
+        from twig_ecs.snapshot import snapshot
+
+        return snapshot(self)
+
+    @classmethod
+    def restore(cls, data: bytes) -> Scene:
+        """A scene from :meth:`snapshot` bytes; it runs on exactly as the original would.
+
+        Snapshot files are trusted input (they may name plug-in code to import); a corrupt,
+        truncated or other-version file raises :class:`~twig_ecs.snapshot.SnapshotError`.
+        """
+        from twig_ecs.snapshot import restore
+
+        return restore(data)
 
     # -- lifetime ------------------------------------------------------------------------
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import colorsys
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +29,9 @@ from twig_ecs.templates import (
     read_pain,
 )
 from twig_ecs.validate import (
+    LIMIT,
+    between,
+    boolean,
     check_keys,
     color,
     fail,
@@ -46,6 +49,9 @@ from twig_ecs.validate import (
 )
 from twig_ecs.yamldoc import YDict
 
+#: A body's height (m) and total mass (kg) in a scene: the ranges the server's spawn accepts.
+HEIGHT = between(0.01, 100.0)
+MASS = between(1e-3, 1e6)
 SCENE_KEYS = ("twig", "name", "description", "parameters", "settings", "templates", "systems", "entities")
 SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
@@ -151,8 +157,8 @@ def read_entity(raw: YDict, path: str, library: ContentLibrary) -> EntitySpec:
         template=template,
         position=read(raw, "position", path, vec3, (0.0, 0.0, 0.0)),
         facing=read(raw, "facing", path, number, 0.0),
-        height=read(raw, "height", path, positive, None),
-        mass=read(raw, "mass", path, positive, None),
+        height=read(raw, "height", path, HEIGHT, None),
+        mass=read(raw, "mass", path, MASS, None),
         color=read(raw, "color", path, color, None),
         pain=pain,
         damping=read_damping(raw, "damping", path, None),
@@ -417,10 +423,42 @@ def read_behaviors(raw: YDict, path: str, known: dict, systems: list[SystemSpec]
             fail(
                 item, "use", join(here, "use"), f"behaviour '{name}' takes commands (goals), not a place here"
             )
-        params = {k: v for k, v in item.items() if k != "use"}
+        params = {k: read_param(cls.component, item, k, here) for k in item if k != "use"}
         try:
             component = cls.component(**params)
         except TypeError as exc:
             fail(item, "use", here, f"bad parameters for '{name}': {exc}")
         out.append(BehaviorSpec(name, component))
     return out
+
+
+def read_param(component: type, item: YDict, key: str, here: str):
+    """One behaviour parameter, checked against its component field's default type.
+
+    A number where a name goes (``caregiver: 5``) would otherwise load fine and fail inside
+    the first step. Unknown keys pass through: the component's constructor names them.
+    """
+    spec = {f.name: f for f in fields(component)}.get(key) if is_dataclass(component) else None
+    if spec is None:
+        return item[key]
+    default = spec.default if spec.default is not MISSING else spec.default_factory()  # type: ignore[misc]
+    annotation = str(spec.type)
+    if isinstance(default, bool):
+        return read(item, key, here, boolean)
+    if isinstance(default, int):
+        return read(item, key, here, integer(-int(LIMIT), int(LIMIT)))
+    if isinstance(default, float):
+        return read(item, key, here, number)
+    if isinstance(default, str):
+        return read(item, key, here, text)
+    if isinstance(default, list):
+        value = read(item, key, here, sequence)
+        if annotation.startswith("list[str"):
+            return [read(value, i, join(here, key), text) for i in range(len(value))]
+        return value
+    if isinstance(default, dict):
+        value = read(item, key, here, mapping)
+        if annotation.startswith("dict[str, float"):
+            return {str(k): read(value, k, join(here, key), number) for k in value}
+        return value
+    return item[key]

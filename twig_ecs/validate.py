@@ -87,6 +87,15 @@ def nonnegative(value: Any) -> float:
     return _bounded(value, lambda x: x >= 0, "a number of at least 0")
 
 
+def between(lo: float, hi: float) -> Callable[[Any], float]:
+    """A number in [lo, hi] (a body's height or mass: a tiny one divides by zero when spawned)."""
+
+    def read(value: Any) -> float:
+        return _bounded(value, lambda x: lo <= x <= hi, f"a number from {lo:g} to {hi:g}")
+
+    return read
+
+
 def fraction(value: Any) -> float:
     """A number in [0, 1]."""
     return _bounded(value, lambda x: 0 <= x <= 1, "a number from 0 to 1")

@@ -60,6 +60,12 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
         default=None,
         help=f"clients must send this first (auth); needed off loopback (or set {TOKEN_ENV})",
     )
+    p.add_argument(
+        "--record",
+        metavar="FILE",
+        default=None,
+        help="log every applied command with its frame (replay with: twig run --replay FILE)",
+    )
     p.set_defaults(func=cmd_serve)
 
 
@@ -107,6 +113,11 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
         scene = Scene.load(args.scene, seed=args.seed, content=args.content, **args.parameters)
     try:
+        recorder = None
+        if args.record:
+            from twig_ecs.replay import Recorder
+
+            recorder = Recorder(args.record, args.scene, args.seed, args.content, args.autonomous)
         server = Server(
             scene,
             host=args.host,
@@ -116,6 +127,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
             paused=args.paused,
             autonomous=args.autonomous,
             window=window,
+            recorder=recorder,
         )
     except BaseException:
         (window or scene).close()

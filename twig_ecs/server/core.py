@@ -239,6 +239,7 @@ class Server:
     ``await server.start()`` binds the ports (``port=0`` picks a free one, see
     :attr:`port`) and starts the simulation loop; ``await server.stop()`` ends both
     and closes the scene (if ``own_scene``). ``window``: a play window to draw each frame.
+    ``recorder``: a :class:`~twig_ecs.replay.Recorder` that logs every applied command.
     """
 
     def __init__(
@@ -253,6 +254,7 @@ class Server:
         window=None,
         own_scene: bool = True,
         log: Callable[[str], None] | None = None,
+        recorder=None,
     ) -> None:
         self.scene = scene
         self.host = host
@@ -274,10 +276,17 @@ class Server:
         self._sim: asyncio.Task | None = None
         self._wakeup: asyncio.Event | None = None
         self._stopped: asyncio.Event | None = None
+        self.recorder = None
         self._adopt(scene)
+        self.recorder = recorder
 
     def _adopt(self, scene) -> None:
         """Serve ``scene``: hear its events, apply the autonomy mode, note its grabs."""
+        if self.recorder is not None:  # the window reloaded the scene: the recording is of the old one
+            self.recorder.close(
+                self.scene.frame, self.scene.state_hash(), note="scene reloaded; not recorded"
+            )
+            self.recorder = None
         self.scene = scene
         self.goal_owners.clear()
         self._pending.clear()
@@ -339,6 +348,8 @@ class Server:
         self._listeners.clear()
         while self._queue:
             self._queue.popleft().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
+        if self.recorder is not None:
+            self.recorder.close(self.scene.frame, self.scene.state_hash())
         if self.window is not None and not self.window.closed:
             self.window.close()  # closes its scene too
         elif self.own_scene:
@@ -367,6 +378,7 @@ class Server:
             self._wakeup.set()
 
     async def _apply(self, command: Command) -> None:
+        frame = self.scene.frame
         try:
             result = command.method.fn(self, command.session, **command.params)
             if inspect.isawaitable(result):
@@ -382,6 +394,8 @@ class Server:
             error = RPCError(rpc.INTERNAL_ERROR, f"internal error in {command.method.name}: {exc!r}")
         else:
             error = None
+        if self.recorder is not None:
+            self.recorder.command(frame, command.method.name, command.params, error and error.message)
         self._flush()  # what the command set off (a cancelled goal), before its answer
         command.done(result if error is None else None, error)
 

@@ -260,8 +260,10 @@ def status(server: Server, session: Session) -> dict[str, Any]:
     }
 
 
-def _goal(server: Server, session: Session, character: str, behavior: str, **params) -> dict[str, Any]:
+def _goal(server: Server, session: Session, character: str, behavior: str, params: dict) -> dict[str, Any]:
     handle = _character(server, character)
+    if "on_end" in params:  # do()'s callback argument, never a goal parameter from a client
+        raise _bad(f"{behavior}: unknown parameter 'on_end'")
     goal = handle.do(behavior, **params)
     server.goal_owners[goal.id] = session
     return {"goal": goal.id, "character": character, "behavior": behavior}
@@ -270,13 +272,14 @@ def _goal(server: Server, session: Session, character: str, behavior: str, **par
 def _goal_method(behavior: str, param_names: tuple[str, ...]):
     def run(server: Server, session: Session, character: str, **params) -> dict[str, Any]:
         given = {k: params[k] for k in param_names}
-        return _goal(server, session, character, behavior, **given)
+        return _goal(server, session, character, behavior, given)
 
     return run
 
 
 def gesture(server: Server, session: Session, character: str, name: str, target, duration: float):
-    return _goal(server, session, character, "gesture", name=name, target=target, duration=duration)
+    params = {"name": name, "target": target, "duration": duration}
+    return _goal(server, session, character, "gesture", params)
 
 
 def _check_plain(value: Any, where: str) -> None:
@@ -295,7 +298,7 @@ def goal_do(server: Server, session: Session, character: str, behavior: str, par
     if params is not None and not isinstance(params, dict):
         raise _bad("'params' must be an object")
     _check_plain(params, "params")
-    return _goal(server, session, character, behavior, **(params or {}))
+    return _goal(server, session, character, behavior, params or {})
 
 
 def walk(server: Server, session: Session, character: str, velocity) -> None:

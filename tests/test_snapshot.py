@@ -1,0 +1,224 @@
+"""Snapshots: a restored scene runs on exactly as the original, and bad files get clear errors."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+import struct
+
+import pytest
+
+from twig_ecs import Scene
+from twig_ecs.cli import main
+from twig_ecs.snapshot import FORMAT_VERSION, MAGIC, SnapshotError, read_meta
+from twig_ecs.system import System
+
+
+class Holding(System):
+    """A user system that keeps whatever it is given (a kernel, a socket) as state."""
+
+    name = "holding"
+
+    def process(self, dt: float) -> None:
+        pass
+
+
+def goals_of(scene: Scene, name: str) -> list[tuple]:
+    return [(g.id, g.behavior, g.status, g.params) for g in scene.entity(name).goals]
+
+
+def assert_restored_runs_on_alike(scene: Scene, scenes: list, seconds: float) -> Scene:
+    """Snapshot ``scene``, restore it, run both on; the restored one must end in the same state."""
+    restored = Scene.restore(scene.snapshot())
+    scenes.append(restored)
+    assert restored is not scene and restored.frame == scene.frame
+    assert restored.state_hash() == scene.state_hash()
+    scene.run(seconds)
+    restored.run(seconds)
+    assert restored.frame == scene.frame
+    assert restored.state_hash() == scene.state_hash()
+    return restored
+
+
+def test_snapshot_at_30s_then_restore_runs_to_the_same_state_as_straight_to_60s(scenes):
+    straight = Scene.load("schoolyard", seed=0)
+    halted = Scene.load("schoolyard", seed=0)
+    scenes += [straight, halted]
+    straight.run(60.0)
+    halted.run(30.0)
+    data = halted.snapshot()
+    halted.close()  # nothing of the original is left to lean on
+    restored = Scene.restore(data)
+    scenes.append(restored)
+    assert restored.time == pytest.approx(30.0)
+    restored.run(30.0)
+    assert restored.state_hash() == straight.state_hash()
+    assert restored.event_counts == straight.event_counts
+
+
+def test_snapshot_mid_hug_keeps_the_hug_going(scenes):
+    scene = Scene.load("schoolyard", seed=3)
+    scenes.append(scene)
+    child = scene.entity("small_child")
+    goal = child.hug("parent", duration=4.0)
+    for _ in range(1200):
+        scene.step()
+        if child.behaviour == "hug" and goal.started >= 0 and scene.time - goal.started > 0.5:
+            break
+    assert child.behaviour == "hug" and not goal.finished, "the hug should be under way"
+    restored = Scene.restore(scene.snapshot())
+    scenes.append(restored)
+    assert goals_of(restored, "small_child") == goals_of(scene, "small_child")
+    assert restored.entity("small_child").behaviour == "hug"
+    scene.run(8.0)
+    restored.run(8.0)
+    assert restored.state_hash() == scene.state_hash()
+    assert restored.event_counts["goal.done"] == scene.event_counts["goal.done"] >= 1
+
+
+def test_snapshot_with_a_closing_grab_joint_carries_on_carrying(scenes):
+    scene = Scene.load("schoolyard", seed=1)
+    scenes.append(scene)
+    big = scene.entity("big_child")
+    big.autonomous = False
+    big.carry("ball", to=(2.0, 0.0, 2.0))
+    for _ in range(1800):
+        scene.step()
+        if big.holding:
+            break
+    ((_, joint),) = [(e, g) for e, g in scene.grabs() if g.holder == big.entity]
+    assert scene.state.links.rest[joint.index] > 0.0, "snapshot while the joint is still closing"
+    restored = assert_restored_runs_on_alike(scene, scenes, 6.0)
+    assert restored.entity("big_child").holding == scene.entity("big_child").holding
+
+
+def test_a_snapshot_keeps_rng_goal_ids_and_the_scenes_own_subscribers(scenes):
+    scene = Scene.load("schoolyard", seed=5)
+    scenes.append(scene)
+    scene.run(1.0)
+    heard: list = []
+    scene.on("contact", heard.append)  # an outside observer: not part of the world
+    goal = scene.entity("parent").do("gesture", name="wave", duration=9.0, on_end=lambda g: None)
+    data = scene.snapshot()
+    meta = read_meta(data)
+    assert meta["scene"] == "schoolyard" and meta["frame"] == 60 and meta["state_hash"] == scene.state_hash()
+    dropped = " | ".join(meta["dropped"])
+    assert "subscriber of 'contact'" in dropped and f"on_end of goal {goal.id}" in dropped
+    restored = Scene.restore(data)
+    scenes.append(restored)
+    assert restored.rng.random() == scene.rng.random()
+    assert restored.entity("parent").do("sit").id == scene.entity("parent").do("sit").id == goal.id + 1
+    assert restored._handlers.get("contact", []) == []  # noqa: SLF001
+
+
+def test_save_and_load_through_the_cli_round_trip(tmp_path, capsys):
+    path = tmp_path / "half.twigsnap"
+    assert main(["run", "schoolyard", "--seconds", "5", "--save", str(path)]) == 0
+    assert f"saved snapshot at t=5.00 s to {path}" in capsys.readouterr().out
+    assert main(["run", "--load", str(path), "--seconds", "5", "--report", "json"]) == 0
+    resumed = json.loads(capsys.readouterr().out)
+    assert main(["run", "schoolyard", "--seconds", "10", "--report", "json"]) == 0
+    straight = json.loads(capsys.readouterr().out)
+    assert resumed["frames"] == straight["frames"] == 600
+    assert resumed["state_hash"] == straight["state_hash"]
+
+
+# -- bad files ------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def good() -> bytes:
+    with Scene.load("empty") as scene:
+        scene.spawn("ball", position=(0, 1, 0))
+        scene.run(0.5)
+        return scene.snapshot()
+
+
+def _rebuild(payload: bytes, version: int = FORMAT_VERSION, meta: dict | None = None) -> bytes:
+    """A well-formed file (right checksum) around any payload."""
+    meta_bytes = json.dumps(meta or {"plugins": []}).encode()
+    body = struct.pack(">8sHI", MAGIC, version, len(meta_bytes)) + meta_bytes
+    body += struct.pack(">Q", len(payload)) + payload
+    return body + hashlib.sha256(body).digest()
+
+
+@pytest.mark.parametrize(
+    ("mangle", "says"),
+    [
+        (lambda d: d[: len(d) // 2], "truncated"),
+        (lambda d: d[:-1], "truncated"),
+        (lambda d: d[:5], "not a twig snapshot"),
+        (lambda d: d[:-100] + bytes([d[-100] ^ 0xFF]) + d[-99:], "checksum"),
+        (lambda d: b"PK\x03\x04" + d[4:], "not a twig snapshot"),
+        (lambda d: d[:8] + struct.pack(">H", FORMAT_VERSION + 1) + d[10:], "format version"),
+        (lambda d: b"", "not a twig snapshot"),
+    ],
+    ids=["half", "last-byte", "header-only", "flipped-byte", "zip", "version", "empty"],
+)
+def test_a_damaged_snapshot_gets_a_clear_error(good, mangle, says):
+    with pytest.raises(SnapshotError, match=says):
+        Scene.restore(mangle(good))
+
+
+def test_a_snapshot_may_not_name_code_outside_twig_numpy_and_esper(good):
+    import os
+
+    evil = pickle.dumps((os.system, ("echo owned",)))
+    with pytest.raises(SnapshotError, match="may not load"):
+        Scene.restore(_rebuild(evil))
+    not_a_scene = pickle.dumps(({"a": 1}, {}))
+    with pytest.raises(SnapshotError, match="does not hold a scene"):
+        Scene.restore(_rebuild(not_a_scene, meta={"plugins": [], "state_hash": "x"}))
+    with pytest.raises(SnapshotError, match="unreadable"):
+        Scene.restore(_rebuild(b"\x80\x05garbage"))
+
+
+def test_the_cli_reports_a_bad_snapshot_without_a_traceback(tmp_path, capsys):
+    path = tmp_path / "bad.twigsnap"
+    path.write_bytes(b"TWIGSNAP\x00")
+    assert main(["run", "--load", str(path), "--seconds", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: snapshot truncated") and "Traceback" not in err
+    assert main(["run", "--load", str(tmp_path / "missing"), "--seconds", "1"]) == 2
+    assert "cannot read snapshot" in capsys.readouterr().err
+
+
+def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_process(tmp_path, capsys):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene_file = Path(__file__).resolve().parent.parent / "examples" / "dance" / "scene.yaml"
+    path = tmp_path / "dance.twigsnap"
+    assert main(["run", str(scene_file), "--seconds", "2", "--save", str(path)]) == 0
+    capsys.readouterr()
+    meta = read_meta(path.read_bytes())
+    assert [p["module"] for p in meta["plugins"]] == ["twig_plugin_dance"]
+    assert meta["plugins"][0]["file"].endswith("dance.py")
+    assert main(["run", str(scene_file), "--seconds", "3", "--report", "json"]) == 0
+    straight = json.loads(capsys.readouterr().out)
+    done = subprocess.run([sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
+                           "--report", "json"], capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["state_hash"] == straight["state_hash"]
+
+
+def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scenes):
+    import socket
+
+    from twig_ecs.systems.integrate import integrate_nodes
+
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    holding = scene.add_system(Holding(), after="collide")
+    holding.kept = integrate_nodes
+    restored = Scene.restore(scene.snapshot())
+    scenes.append(restored)
+    (copy,) = [s for s in restored.schedule.systems() if isinstance(s, Holding)]
+    assert copy.kept is integrate_nodes and copy.scene is restored
+    assert read_meta(scene.snapshot())["plugins"] == [{"module": __name__, "file": __file__}]
+    with socket.socket() as sock:
+        holding.kept = sock
+        with pytest.raises(SnapshotError, match="cannot snapshot a socket"):
+            scene.snapshot()

@@ -1,0 +1,79 @@
+"""Soak checks: physics health figures over a run, and the first limit crossed, by frame and body."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene
+from twig_ecs.cli import main
+from twig_ecs.soak import Health, SoakLimits
+
+
+def test_five_minutes_of_schoolyard_stay_within_the_soak_limits(capsys):
+    assert main(["run", "schoolyard", "--seconds", "300", "--soak", "--report", "json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["frames"] == 18000 and report["violation"] is None and report["nan"] is False
+    limits = SoakLimits()
+    assert 0.0 < report["max_speed_m_s"] <= limits.max_speed
+    assert limits.min_y <= report["min_node_y"] < 0.05
+    assert 0.0 < report["max_penetration_m"] <= limits.max_penetration
+    assert 0.0 < report["max_link_error"] <= limits.max_link_error
+    assert 0.0 < report["max_kinetic_energy_j"] <= limits.max_energy
+
+
+def test_the_soak_stops_at_the_first_limit_crossed_and_names_frame_and_body(capsys):
+    code = main(["run", "schoolyard", "--seconds", "20", "--max-link-error", "0.2"])  # implies --soak
+    assert code == 1
+    out, err = capsys.readouterr()
+    assert "soak: max speed" in out
+    line = err.strip()
+    assert line.startswith("soak failed: frame ")
+    assert "max_link_error" in line and "above the limit 0.2" in line
+    frame = int(line.split("frame ")[1].split()[0])
+    assert 0 < frame < 1200 and f"{frame} frames" in out  # the run stopped there
+    assert line.endswith("'ragdoll'")  # the carried ragdoll's short forearm stretches most
+
+
+def test_a_node_too_fast_is_pinned_on_its_body(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    ball = scene.spawn("ball", name="cannonball", position=(0, 1, 0))
+    ball.set_velocity((20.0, 0.0, 0.0))  # below settings.max_speed, the integrator's clamp
+    scene.spawn("ragdoll", name="bystander", position=(3, 0.2, 0))
+    health = Health(scene, SoakLimits(max_speed=15.0))
+    scene.step()
+    violation = health.update()
+    assert violation is not None and violation.frame == 1 and violation.figure == "max_speed"
+    assert violation.entity == "cannonball" and violation.value == pytest.approx(20.0, rel=0.05)
+    scene.step()
+    assert health.update() is None and health.violation is violation  # only the first is reported
+    assert health.figures()["max_speed_m_s"] >= violation.value
+
+
+def test_overlapping_bodies_are_named_as_a_pair(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    scene.spawn("ragdoll", name="bottom", position=(0, 0.3, 0))
+    scene.spawn("ragdoll", name="top", position=(0.05, 0.35, 0.0))
+    health = Health(scene, SoakLimits(max_penetration=0.001))
+    scene.step()
+    violation = health.update()
+    assert violation is not None and violation.figure == "max_penetration"
+    assert violation.entity == "bottom / top"
+
+
+def test_nan_is_reported_with_the_body_it_appeared_in(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    scene.spawn("ball", name="fine", position=(0, 1, 0))
+    sick = scene.spawn("ragdoll", name="sick", position=(2, 0.3, 0))
+    health = Health(scene)  # no limits: NaN is always reported
+    scene.step()
+    assert health.update() is None
+    scene.state.nodes.pos[sick.body.node_start + 3] = np.nan
+    violation = health.update()
+    assert violation is not None and violation.figure == "nan" and violation.entity == "sick"
+    assert "NaN in the positions of 'sick'" in violation.message() and health.nan
