@@ -92,6 +92,8 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         reach = min(REACH * most, s * (STRIDE + STRIDE_PER_SPEED * speed))
         # shorter legs step faster: a pendulum's period goes with the root of its length
         t_step = (STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)) * s**1.0
+        half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
+                               + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
         # which foot is furthest from where it belongs?
         best = -1
         best_need = 0.0
@@ -114,6 +116,12 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             else:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
             need = max(need, stretch)
+            # a foot that came down hard by the other one (knocked off its arc) steps
+            # away again before the shins rub
+            o = nd[L_FOOT + 1 - f]
+            if flags[o] & NODE_LOCKED:
+                apart = math.sqrt((pos[i, 0] - pos[o, 0]) ** 2 + (pos[i, 2] - pos[o, 2]) ** 2)
+                need = max(need, FOOT_GAP * half - apart)
             alternate = f != last_step[c] and need > 0.5 * best_need  # prefer the other foot
             if need > 0.0 and (best < 0 or need > best_need or alternate):
                 best = f
@@ -132,8 +140,6 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         else:
             fx, fz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
             lx, lz = fz, -fx
-        half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
-                               + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
         side = half if best == 0 else -half
         o = nd[L_FOOT + 1 - best]
         # lead by the pelvis's actual pace along the walk only: its sideways sway is

@@ -15,7 +15,7 @@ from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Character
 
 DURATION = 0.8  # s of retreat per blow
-SPEED = 2.2  # m/s
+SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
 ACTIVATION = 1.3  # beats goals (0.8) by more than select_behavior's URGENT margin
 
 
@@ -60,7 +60,7 @@ class Withdraw(Behavior):
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Back off, arms up, watching the source."""
-        character.walk(self.away[character.entity] * SPEED)
+        character.walk(self.away[character.entity] * SPEED * character.scale**0.5)
         character.pose("grapple")
         source = self.scene.name_of(self.source[character.entity])
         if source and source != character.name:

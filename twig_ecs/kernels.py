@@ -61,6 +61,8 @@ def _prune(base: Path, current: Path) -> None:
 
 
 def _kernels() -> list:
+    """The kernels every scene runs (a crowd's wander kernel compiles on its first use only,
+    so a scene without one would never find it cached and announce a compile each run)."""
     from twig_ecs.systems import (
         arms,
         collide,
@@ -71,12 +73,11 @@ def _kernels() -> list:
         posture,
         respiration,
         sense,
-        wander,
     )
 
     return [integrate.integrate_nodes, constrain.solve_constraints, collide.collider_pairs,
             collide.solve_collisions, sense.feel_impacts, gait.control_gait, gaze.control_gaze,
-            posture.control_posture, arms.control_arms, respiration.breathe, wander.steer_crowd]  # fmt: skip
+            posture.control_posture, arms.control_arms, respiration.breathe]  # fmt: skip
 
 
 def is_cached() -> bool:
