@@ -9,6 +9,8 @@ drag use :func:`steer_to` for their own approach phases.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -16,6 +18,7 @@ from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
+WIDE = 1.0  # m: a body whose nodes spread further than this from its centre is steered round as a disc
 ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
 
 
@@ -26,8 +29,31 @@ def target_point(character, target) -> np.ndarray:
     return np.asarray(target, dtype=np.float64)
 
 
+_FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each body's ground centre (x, z), squared spread and whether it is WIDE; computed
+    once per step however many characters steer (kept aside, not in the scene's state)."""
+    cached = _FOOTPRINTS.get(scene)
+    if cached is not None and cached[0] == scene.frame:
+        return cached[1]
+    state = scene.state
+    pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
+    n_bodies = state.bodies.count
+    counts = np.maximum(np.bincount(body, minlength=n_bodies), 1)
+    cx = np.bincount(body, pos[:, 0], n_bodies) / counts
+    cz = np.bincount(body, pos[:, 2], n_bodies) / counts
+    spread = np.zeros(n_bodies)
+    np.maximum.at(spread, body, (pos[:, 0] - cx[body]) ** 2 + (pos[:, 2] - cz[body]) ** 2)
+    result = (cx, cz, spread, np.sqrt(spread) > WIDE)
+    _FOOTPRINTS[scene] = (scene.frame, result)
+    return result
+
+
 def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
-    """The nearest node of every other body within ``cutoff`` (ground plane), as points."""
+    """The nearest node of every other body within ``cutoff`` (ground plane), as points;
+    for a wide body, the nearest point of the disc it covers."""
     scene = character.scene
     state = scene.state
     here = character.position
@@ -41,17 +67,32 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
         if other is not None and hasattr(other, "holding"):
             exclude |= set(other.holding.values())
     skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
-    # the nearest node of each body that stands higher than a step: things lying low on
-    # the ground (a dropped doll, a ball, a deck's rim) are stepped over or kicked
+    points = []
+    # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
+    # its nearest node can be a metre from the bar one would walk into, and stepping
+    # across a turning deck catches the legs in its bars
+    cx, cz, spread, wide = _footprints(scene)
+    for b in np.flatnonzero(wide):
+        if b in skip:
+            continue
+        off = np.array([here[0] - cx[b], 0.0, here[2] - cz[b]])
+        reach = float(np.linalg.norm(off))
+        radius = float(np.sqrt(spread[b]))
+        if reach - radius < cutoff:
+            # the rim point nearest to it; from inside, the centre (it pushes outwards)
+            rim = off * (radius / reach) if reach > radius else np.zeros(3)
+            points.append(np.array([cx[b], here[1], cz[b]]) + rim)
+    # the nearest node of each other body that stands higher than a step: things lying
+    # low on the ground (a dropped doll, a ball) are stepped over or kicked
     best: dict[int, int] = {}
     for i in near:
         b = int(body[i])
-        if b in skip or pos[i, 1] <= STEP_OVER:
+        if b in skip or wide[b] or pos[i, 1] <= STEP_OVER:
             continue
         if b not in best or d2[i] < d2[best[b]]:
             best[b] = int(i)
-    keep = list(best.values())
-    return pos[keep] if keep else np.zeros((0, 3))
+    points += [pos[i] for i in best.values()]
+    return np.array(points) if points else np.zeros((0, 3))
 
 
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,

@@ -40,6 +40,8 @@ STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip ste
 STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
+LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
+STRAY = 0.1  # of the leg's length: a foot this far up after its step is over is brought down
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -70,7 +72,10 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             if flags[i] & NODE_LOCKED and move_time[i] > 0.0:  # landed early
                 move_time[i] = 0.0
                 flags[i] &= ~np.uint32(NODE_MOVING)
-            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED:
+            # low down only: a foot pushed up onto someone's hip in a crush must not be
+            # nailed there in mid-air (it steps down again instead)
+            low = pos[i, 1] <= radius[i] + LOW_SUPPORT * leg_length[c]
+            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED and low:
                 flags[i] |= NODE_LOCKED
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
                 for k in range(3):
@@ -100,8 +105,12 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
         for f in range(2):
             i = nd[L_FOOT + f]
             h = nd[L_HIP + f]
-            if not flags[i] & NODE_LOCKED:
-                continue
+            # a foot whose step is over but which is neither planted nor flying its arc -
+            # knocked off it, or held up on someone in a crush - is brought down first
+            stray = (not flags[i] & NODE_LOCKED and not flags[i] & NODE_MOVING and swing[c, f] == 0.0
+                     and pos[i, 1] > radius[i] + STRAY * leg_length[c])  # fmt: skip
+            if not flags[i] & NODE_LOCKED and not stray:
+                continue  # mid-step
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
             # a leg close to straight must step whatever else: a locked foot at the end
@@ -122,6 +131,8 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             if flags[o] & NODE_LOCKED:
                 apart = math.sqrt((pos[i, 0] - pos[o, 0]) ** 2 + (pos[i, 2] - pos[o, 2]) ** 2)
                 need = max(need, FOOT_GAP * half - apart)
+            if stray:
+                need = max(need, leg_length[c])  # before anything else
             alternate = f != last_step[c] and need > 0.5 * best_need  # prefer the other foot
             if need > 0.0 and (best < 0 or need > best_need or alternate):
                 best = f
