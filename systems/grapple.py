@@ -9,6 +9,8 @@ the target when it backs off; done after ``duration`` seconds of fighting within
 
 from __future__ import annotations
 
+import numpy as np
+
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
@@ -77,8 +79,6 @@ class Grapple(Behavior):
         character.look_at(None)
 
 
-def _unit(v):
-    import numpy as np
-
+def _unit(v: np.ndarray) -> np.ndarray:
     n = float(np.linalg.norm(v))
     return v / n if n > 1e-9 else v

@@ -44,6 +44,7 @@ class Hug(Behavior):
         character.look_at(target, node="head")
         other = character.scene.entity(target)
         scale = character.scale
+        toward = _unit(other.position - character.position)  # on the ground
         if phase == "approach":
             character.pose("hug")
             if steer_to(character, goal, target, CLOSE * scale + REACH_IN):
@@ -53,8 +54,7 @@ class Hug(Behavior):
             now = character.scene.time
             # close in slowly while the arms go round
             if ground_distance(character.position, other.position) > CLOSE * scale:
-                toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
-                character.walk(toward / max(float(np.linalg.norm(toward)), 1e-9) * CREEP)
+                character.walk(toward * CREEP)
             else:
                 character.stop()
             # the back is held at the torso node nearest the hugger's shoulder height: a
@@ -89,14 +89,11 @@ class Hug(Behavior):
         # hugger leans in until the two torsos meet; pulling with the arms instead
         # could wrench the target's torso inside out
         if ground_distance(character.position, other.position) > 0.8 * CLOSE * scale:
-            toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
-            character.walk(toward / max(float(np.linalg.norm(toward)), 1e-9) * 0.5 * CREEP)
+            character.walk(toward * 0.5 * CREEP)
         else:
             character.stop()
         for hand in m["hands"]:
             character.pose("hug", hand=hand)
-        toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
-        toward /= max(float(np.linalg.norm(toward)), 1e-9)
         character.lean(toward * LEAN_IN * scale)
         if character.scene.time - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
