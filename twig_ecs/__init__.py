@@ -9,7 +9,30 @@ Start with :class:`Scene`::
     print(scene.entity("parent").position)
 """
 
-from twig_ecs.kernels import configure_cache
+from pathlib import Path as _Path
+
+#: The release; pyproject.toml reads it from here (the one place it is written).
+__version__ = "0.1.0"
+
+
+def _checkout_subpackages() -> None:
+    """Find ``twig_ecs.components``/``.systems``/``.content`` in a checkout.
+
+    The design keeps ``components/``, ``systems/`` and ``content/`` at the top of the
+    repository, beside ``twig_ecs/``; an install maps them into the package. Run from a
+    checkout (its ``twig_ecs/`` first on ``sys.path``, as with ``python -m twig_ecs`` or
+    ``python benchmarks/...`` there), the package looks for them beside itself too.
+    """
+    here = _Path(__file__).resolve().parent
+    root = here.parent
+    if not (here / "systems").is_dir() and (root / "systems" / "__init__.py").is_file():
+        if (root / "pyproject.toml").is_file() and str(root) not in __path__:
+            __path__.append(str(root))
+
+
+_checkout_subpackages()
+
+from twig_ecs.kernels import configure_cache  # noqa: E402
 
 configure_cache()  # before any kernel module is imported
 
@@ -18,5 +41,4 @@ from twig_ecs.scene import Scene  # noqa: E402
 from twig_ecs.scenefile import Settings  # noqa: E402
 from twig_ecs.system import System  # noqa: E402
 
-__version__ = "0.1.0"
 __all__ = ["Scene", "SceneError", "ScheduleError", "Settings", "System", "TwigError", "__version__"]
