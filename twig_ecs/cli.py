@@ -244,6 +244,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Commands that compile a first run's kernels up front with progress on stderr
+#: (``play`` shows it in its window; ``bench`` times the compile itself).
+PREPARED_COMMANDS = ("run", "render", "serve")
+
+
+def _prepare_kernels(args: argparse.Namespace) -> None:
+    """Compile the kernels of the scene a command is about to run, if not cached, saying so."""
+    from twig_ecs import kernels
+
+    if not kernels.needs_build():
+        return
+    source = getattr(args, "scene", None) or "schoolyard"  # --load / --replay: the usual kernels
+    kernels.prepare(source, seed=args.seed, content=args.content, parameters=args.parameters)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``twig`` console script."""
     parser = build_parser()
@@ -253,6 +268,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
+        if args.command in PREPARED_COMMANDS:
+            _prepare_kernels(args)
         return int(args.func(args) or 0)
     except TwigError as exc:
         print(f"error: {exc}", file=sys.stderr)

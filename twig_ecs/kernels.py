@@ -45,7 +45,9 @@ KEEP_OLD = 3
 #: Kernels a scene compiles when no earlier build says how many (the schoolyard: 20).
 DEFAULT_KERNEL_COUNT = 20
 #: What a :class:`KernelBuild` worker process runs.
-_WORKER_CODE = "import sys, json; from twig_ecs.kernels import _worker; sys.exit(_worker(json.loads(sys.argv[1])))"  # noqa: E501
+_WORKER_CODE = (
+    "import sys, json; from twig_ecs.kernels import _worker; sys.exit(_worker(json.loads(sys.argv[1])))"  # noqa: E501
+)
 _checked = False
 _folder: Path | None = None
 _warnings: list[str] = []

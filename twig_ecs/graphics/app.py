@@ -35,6 +35,7 @@ MAX_STEPS_PER_FRAME = 8  # a slower frame drops time instead of spiralling
 PAN_SPEED = 0.6  # WASD: distances per second
 TURN_SPEED = 90.0  # Q/E: degrees per second
 ORBIT_DEG_PER_PIXEL = 0.3
+LOADING_FRAME_S = 0.05  # while the kernels compile, about 20 progress frames a second
 
 
 class WindowError(TwigError):
@@ -51,8 +52,9 @@ def load_pyglet_window(headless: bool = False):
     if not headless and sys.platform.startswith("linux"):
         if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise WindowError(
-                "twig play needs a display and none is set (DISPLAY is empty). Use 'twig render' "
-                "for images and videos, or 'twig play --headless --frames N' for a scripted check"
+                "a window needs a display and none is set (DISPLAY and WAYLAND_DISPLAY are empty). "
+                "Use 'twig render' for images and videos, 'twig play --headless --frames N' for a "
+                "scripted check, or 'twig serve' without --window to serve headless"
             )
     pyglet.options["shadow_window"] = False  # no hidden GLX window when there is no X server
     pyglet.options["headless"] = headless
@@ -65,6 +67,8 @@ class Stats:
 
     frame_ms: float = 16.7
     step_ms: float = 0.0
+    #: steps per second taken by someone else (``twig serve --window``: the server steps)
+    external_rate: float = 0.0
 
     def add_frame(self, ms: float) -> None:
         self.frame_ms += 0.1 * (ms - self.frame_ms)
@@ -72,6 +76,10 @@ class Stats:
     def add_steps(self, ms: float, steps: int) -> None:
         if steps:
             self.step_ms += 0.2 * (ms / steps - self.step_ms)
+
+    def add_external(self, steps: int, seconds: float) -> None:
+        if seconds > 0:
+            self.external_rate += 0.2 * (steps / seconds - self.external_rate)
 
 
 class Viewer:
@@ -103,6 +111,9 @@ class Viewer:
         self.message_until = 0.0
         self.stats = Stats()
         self.frames = 0
+        self._own_steps = 0  # steps this viewer took since the last draw
+        self._seen = (self.scene.frame, time.perf_counter())  # scene frame and time at the last draw
+        self.stepped_elsewhere = False  # set when the scene advances without us (a server steps it)
         self.keys_down: set[int] = set()
         self._status_cache: tuple[str, Image.Image] | None = None
         self._panel_cache: dict[str, tuple[tuple, Image.Image]] = {}
@@ -127,6 +138,7 @@ class Viewer:
         if steps:
             t0 = time.perf_counter()
             self.scene.step(steps)
+            self._own_steps += steps
             self.stats.add_steps((time.perf_counter() - t0) * 1000.0, steps)
             self.accumulator -= steps * dt
         self.alpha = min(1.0, self.accumulator / dt)
@@ -176,6 +188,7 @@ class Viewer:
     def step_once(self) -> None:
         self.paused = True
         self.scene.step(1)
+        self._own_steps += 1
         self.alpha = 1.0
 
     def reload(self) -> None:
@@ -281,9 +294,24 @@ class Viewer:
 
     # -- drawing ------------------------------------------------------------------------
 
+    def _note_outside_steps(self) -> None:
+        """Notice steps someone else took (a server) since the last draw, for the status line."""
+        now = time.perf_counter()
+        frame, then = self._seen
+        outside = self.scene.frame - frame - self._own_steps
+        if outside > 0:
+            self.stepped_elsewhere = True
+        if self.stepped_elsewhere:
+            self.stats.add_external(max(0, outside), now - then)
+        self._seen, self._own_steps = (self.scene.frame, now), 0
+
     def status_text(self) -> str:
         fps = 1000.0 / max(self.stats.frame_ms, 1e-3)
-        parts = [f"fps {fps:5.1f}", f"sim {self.stats.step_ms:5.2f} ms/step", f"t {self.scene.time:7.2f} s",
+        if self.stepped_elsewhere:  # the server steps and times the scene; we only draw it
+            sim = f"served {self.stats.external_rate:5.1f} steps/s"
+        else:
+            sim = f"sim {self.stats.step_ms:5.2f} ms/step"
+        parts = [f"fps {fps:5.1f}", sim, f"t {self.scene.time:7.2f} s",
                  "PAUSED" if self.paused else "running"]  # fmt: skip
         if self.selected:
             parts.append(f"{self.selected}{' (follow)' if self.follow else ''}")
@@ -300,7 +328,7 @@ class Viewer:
         out = []
         text = self.status_text()
         if self._status_cache is None or self._status_cache[0] != text or self.frames % 15 == 0:
-            self._status_cache = (text, text_panel([text], scale))
+            self._status_cache = (text, text_panel([text], scale, max_width=width - 2 * margin))
         status = self._status_cache[1]
         out.append(("status", status, margin, height - status.size[1] - margin))
         if self.show_help:
@@ -309,7 +337,9 @@ class Viewer:
         if self.show_inspector:
             lines = tuple(inspector_lines(self.scene, self.selected))
             image = self._panel(
-                "inspector", (scale, lines), lambda: text_panel(lines, scale, title="inspector")
+                "inspector",
+                (scale, lines, width),
+                lambda: text_panel(lines, scale, title="inspector", max_width=width - 2 * margin),
             )
             out.append(("inspector", image, margin, margin))
         return out
@@ -325,6 +355,7 @@ class Viewer:
         """Render the scene and panels into ``renderer.frame`` (the window presents it)."""
         if self.camera is None:
             self.camera = self.camera_spec.make(self.scene, size[0] / max(1, size[1]))
+        self._note_outside_steps()
         renderer.options.selected = self.selected
         renderer.options.attention = self.show_inspector  # the inspector brings the focus lines
         renderer.render(self.scene, self.camera, size, self.alpha, tuple(self.panels(size, scale)))
@@ -342,13 +373,51 @@ def open_window(source: str = "schoolyard", seed: int = 0, content: tuple | list
                 paused: bool = False, headless: bool = False, screenshot_dir: str | Path = ".",
                 visible: bool = True, parameters: dict | None = None):  # fmt: skip
     """Open a play window (a :class:`PlayWindow`, a ``pyglet.window.Window``) on a scene."""
+    from twig_ecs import kernels
+
     window_module = load_pyglet_window(headless)
-    viewer = Viewer(source, seed, content, camera, paused, screenshot_dir, parameters)
+
+    def make_viewer() -> Viewer:
+        return Viewer(source, seed, content, camera, paused, screenshot_dir, parameters)
+
+    window_class = _window_class(window_module)
+    if kernels.needs_build():  # a first run: open at once and show the compile's progress
+        loading = Loading(kernels.KernelBuild(source, seed, content, parameters), make_viewer,
+                          f"twig - {Path(str(source)).stem}")  # fmt: skip
+        try:
+            return window_class(None, size, visible=visible and not headless, loading=loading)
+        except BaseException:
+            loading.build.cancel()
+            raise
+    viewer = make_viewer()
     try:
-        return _window_class(window_module)(viewer, size, visible=visible and not headless)
+        return window_class(viewer, size, visible=visible and not headless)
     except BaseException:
         viewer.close()
         raise
+
+
+@dataclass
+class Loading:
+    """A window's state while the kernels compile: the build, and how to make the viewer after."""
+
+    build: object  # a twig_ecs.kernels.KernelBuild (or anything with poll/status/fraction/cancel)
+    make_viewer: object  # () -> Viewer, called once the build has finished
+    caption: str
+
+    def panel(self, scale: float) -> Image.Image:
+        """The progress panel: what compiles, a bar, and why the wait (made again on a change)."""
+        key = (self.build.status(), self.build.fraction, scale)
+        if getattr(self, "_cached", (None,))[0] != key:
+            self._cached = (key, self._make_panel(scale))
+        return self._cached[1]
+
+    def _make_panel(self, scale: float) -> Image.Image:
+        fraction = self.build.fraction
+        filled = round(24 * fraction)
+        lines = [self.build.status(), f"[{'#' * filled}{'.' * (24 - filled)}] {100 * fraction:3.0f}%",
+                 "first run only: later starts load the compiled kernels from the cache"]  # fmt: skip
+        return text_panel(lines, scale, title="twig play: getting ready")
 
 
 _WINDOW_CLASS = None
@@ -364,30 +433,40 @@ def _window_class(window_module):
     class PlayWindow(window_module.Window):
         """A resizable window that steps and draws a :class:`Viewer`."""
 
-        def __init__(self, viewer: Viewer, size: tuple[int, int], visible: bool = True) -> None:
+        def __init__(self, viewer: Viewer | None, size: tuple[int, int], visible: bool = True,
+                     loading: Loading | None = None) -> None:  # fmt: skip
             config = pyglet.gl.Config(major_version=3, minor_version=3, forward_compatible=True,
                                       double_buffer=True)  # fmt: skip
+            caption = loading.caption if viewer is None else f"twig - {viewer.scene.name}"
             try:
-                super().__init__(size[0], size[1], caption=f"twig - {viewer.scene.name}", resizable=True,
+                super().__init__(size[0], size[1], caption=caption, resizable=True,
                                  config=config, visible=visible, vsync=True)  # fmt: skip
             except (window_module.NoSuchConfigException, pyglet.gl.ContextException) as exc:
                 raise WindowError(f"cannot open an OpenGL 3.3 window: {exc}") from exc
             self.viewer = viewer
-            viewer.bind_keys(key)
+            self.loading = loading
+            if viewer is not None:
+                viewer.bind_keys(key)
             self.switch_to()
             moderngl.init_context()  # a context per window: create_context() would look for GLX
             self.ctx = moderngl.get_context()
             # Multisampling costs 2-3x on a software rasteriser: keep the window responsive there.
             software = any(s in self.ctx.info["GL_RENDERER"] for s in ("llvmpipe", "softpipe"))
             self.renderer = Renderer(self.ctx, samples=0 if software else 4)
-            self._last = time.perf_counter()
+            self._last = self._last_draw = time.perf_counter()
             self.closed = False
+            #: perf_counter() when the scene first drew (None while the kernels compile)
+            self.scene_started: float | None = None if viewer is None else time.perf_counter()
 
         # -- the loop
         def on_draw(self) -> None:
+            if self.loading is not None and not self._load_step():
+                return
             now = time.perf_counter()
             elapsed, self._last = now - self._last, now
-            self.viewer.stats.add_frame(elapsed * 1000.0)
+            # fps from the wall clock even when frame(elapsed) fakes the simulated time
+            self.viewer.stats.add_frame((now - self._last_draw) * 1000.0)
+            self._last_draw = now
             self.viewer.advance(elapsed)
             fb_size = self.get_framebuffer_size()
             scale = fb_size[0] / max(1, self.width)  # HiDPI: framebuffer pixels per window unit
@@ -396,6 +475,25 @@ def _window_class(window_module):
             error = self.ctx.error  # read (and so clear) it: pyglet's GL checks would trip on it
             if error != "GL_NO_ERROR":
                 print(f"twig play: OpenGL reported {error}", file=sys.stderr)
+
+        def _load_step(self) -> bool:
+            """While the kernels compile, draw the progress; True once the scene is ready."""
+            loading = self.loading
+            fb_size = self.get_framebuffer_size()
+            if not loading.build.poll():
+                scale = fb_size[0] / max(1, self.width)
+                image = loading.panel(scale)
+                x, y = (fb_size[0] - image.size[0]) // 2, (fb_size[1] - image.size[1]) // 2
+                self.renderer.render_panels(fb_size, (("loading", image, x, y),))
+                self.renderer.present(self.ctx.screen, fb_size)
+                time.sleep(LOADING_FRAME_S)  # leave the cores to the compiling workers
+                return False
+            self.viewer = loading.make_viewer()  # loads the kernels the workers just cached
+            self.viewer.bind_keys(key)
+            self.loading = None
+            self.set_caption(f"twig - {self.viewer.scene.name}")
+            self._last = self._last_draw = self.scene_started = time.perf_counter()  # not simulated time
+            return True
 
         def frame(self, elapsed: float | None = None) -> None:
             """Process events and draw one frame by hand (for tests and ``--frames``).
@@ -417,18 +515,25 @@ def _window_class(window_module):
 
         # -- input
         def on_key_press(self, symbol: int, modifiers: int):
+            if self.viewer is None:  # still compiling: only Esc (quit) does anything
+                if symbol == key.ESCAPE:
+                    self.close()
+                return True
             if self.viewer.key_press(symbol, modifiers) == "quit":
                 self.close()
             return True  # handled: keeps pyglet's default Esc handling out of the way
 
         def on_key_release(self, symbol: int, modifiers: int) -> None:
-            self.viewer.key_release(symbol)
+            if self.viewer is not None:
+                self.viewer.key_release(symbol)
 
         def on_mouse_drag(self, x, y, dx, dy, buttons, modifiers) -> None:
-            self.viewer.mouse_drag(dx, dy, buttons, modifiers, self.height, mouse)
+            if self.viewer is not None:
+                self.viewer.mouse_drag(dx, dy, buttons, modifiers, self.height, mouse)
 
         def on_mouse_scroll(self, x, y, scroll_x, scroll_y) -> None:
-            self.viewer.scroll(scroll_y)
+            if self.viewer is not None:
+                self.viewer.scroll(scroll_y)
 
         def on_resize(self, width: int, height: int) -> None:
             pass  # the renderer follows get_framebuffer_size() every frame
@@ -438,7 +543,10 @@ def _window_class(window_module):
                 self.closed = True
                 self.switch_to()
                 self.renderer.release()
-                self.viewer.close()
+                if self.loading is not None:
+                    self.loading.build.cancel()
+                if self.viewer is not None:
+                    self.viewer.close()
             super().close()
 
     _WINDOW_CLASS = PlayWindow
@@ -457,18 +565,32 @@ def play(
     screenshot_dir: str | Path = ".",
     parameters: dict | None = None,
 ) -> int:
-    """Open the window and run until it closes (or ``max_frames`` are drawn); return frames drawn."""
+    """Open the window and run until it closes (or ``max_frames`` scene frames are drawn).
+
+    Returns the scene frames drawn. On a first run the window opens at once and shows the
+    kernels compiling; those frames do not count. With ``max_frames`` a line on stderr says
+    when the first frame and the first scene frame were drawn (seconds since the call).
+    """
+    start = time.perf_counter()
     window = open_window(source, seed, content, size, camera, paused, headless, screenshot_dir,
                          parameters=parameters)  # fmt: skip
     if max_frames is None and not headless:
         pyglet.app.run(interval=1 / 120)
-        return window.viewer.frames
+        return window.viewer.frames if window.viewer is not None else 0
     limit = max_frames if max_frames is not None else 600
-    drawn = 0
+    first = None
     try:
-        while drawn < limit and not window.closed:
+        while not window.closed and (window.viewer is None or window.viewer.frames < limit):
             window.frame()
-            drawn += 1
+            if first is None:
+                first = time.perf_counter() - start
+                if max_frames is not None:
+                    print("twig play: first frame drawn", file=sys.stderr, flush=True)
+        drawn = window.viewer.frames if window.viewer is not None else 0
     finally:
         window.close()
+    if max_frames is not None:
+        print(f"twig play: first frame after {first:.2f} s, scene running after "
+              f"{window.scene_started - start if window.scene_started else float('nan'):.2f} s",
+              file=sys.stderr)  # fmt: skip
     return drawn

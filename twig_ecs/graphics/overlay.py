@@ -47,15 +47,30 @@ def font(size: int) -> ImageFont.ImageFont | ImageFont.FreeTypeFont:
         return ImageFont.load_default()
 
 
-def text_panel(lines: Sequence[str], scale: float = 1.0, title: str | None = None) -> Image.Image:
-    """A dark translucent box with ``lines`` of white text; ``scale`` follows the pixel ratio."""
-    size = max(9, round(14 * scale))
-    f = font(size)
-    pad = round(8 * scale)
-    line_h = round(size * 1.35)
+#: The smallest font (pixels, before scaling) a panel shrinks to before it wraps its lines.
+MIN_FONT_PX = 10
+
+
+def text_panel(lines: Sequence[str], scale: float = 1.0, title: str | None = None,
+               max_width: int | None = None) -> Image.Image:  # fmt: skip
+    """A dark translucent box with ``lines`` of white text; ``scale`` follows the pixel ratio.
+
+    With ``max_width`` (pixels) the panel never gets wider: the font shrinks (down to
+    ``MIN_FONT_PX``) so a table keeps its columns, then over-long lines wrap.
+    """
     all_lines = ([title] if title else []) + list(lines)
-    widths = [f.getbbox(line)[2] if line else 0 for line in all_lines]
-    width = int(max(widths, default=0) + 2 * pad)
+    size = max(9, round(14 * scale))
+    pad = round(8 * scale)
+    f = font(size)
+    if max_width is not None:
+        smallest = max(9, round(MIN_FONT_PX * scale))
+        while size > smallest and _widest(f, all_lines) + 2 * pad > max_width:
+            size -= 1
+            f = font(size)
+        if _widest(f, all_lines) + 2 * pad > max_width:
+            all_lines = _wrap(all_lines, f, max_width - 2 * pad)
+    line_h = round(size * 1.35)
+    width = int(_widest(f, all_lines) + 2 * pad)
     height = int(line_h * len(all_lines) + 2 * pad)
     image = Image.new("RGBA", (max(width, 1), max(height, 1)), (20, 22, 28, 170))
     draw = ImageDraw.Draw(image)
@@ -63,6 +78,26 @@ def text_panel(lines: Sequence[str], scale: float = 1.0, title: str | None = Non
         color = (255, 220, 120, 255) if title and k == 0 else (235, 238, 242, 255)
         draw.text((pad, pad + k * line_h), line, font=f, fill=color)
     return image
+
+
+def _widest(f, lines: Sequence[str]) -> int:
+    return max((f.getbbox(line)[2] if line else 0 for line in lines), default=0)
+
+
+def _wrap(lines: Sequence[str], f, width: int) -> list[str]:
+    """Break lines wider than ``width`` pixels, at a space where there is one."""
+    out = []
+    for line in lines:
+        while line and f.getbbox(line)[2] > width:
+            cut = len(line)
+            while cut > 1 and f.getbbox(line[:cut])[2] > width:
+                cut -= 1
+            space = line.rfind(" ", 0, cut)
+            cut = space if space > cut // 2 else cut
+            out.append(line[:cut].rstrip())
+            line = "    " + line[cut:].lstrip()
+        out.append(line)
+    return out
 
 
 # -- inspector ------------------------------------------------------------------------

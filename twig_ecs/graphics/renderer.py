@@ -353,6 +353,18 @@ class Renderer:
             ctx.copy_framebuffer(self.frame, fbo)
         return self.frame
 
+    def render_panels(self, size: tuple[int, int], panels: tuple) -> moderngl.Framebuffer:
+        """Draw only text ``panels`` on the sky colour (a window with no scene yet)."""
+        self.resize(size)
+        fbo = self._draw_fbo
+        fbo.use()
+        self.ctx.viewport = (0, 0, *self.size)
+        self.ctx.clear(*SKY, 1.0, depth=1.0)
+        self._draw_panels(panels)
+        if fbo is not self.frame:
+            self.ctx.copy_framebuffer(self.frame, fbo)
+        return self.frame
+
     def _fill(self, scene, alpha: float) -> None:
         """Gather this frame's instances from the store into the instance buffers."""
         state = scene.state
