@@ -81,7 +81,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                 print(f"ok: {path} (scene '{plan.name}', {len(plan.entities)} entities)")
         except TwigError as exc:
             failures += 1
-            print(f"error: {exc}", file=sys.stderr)
+            for line in str(exc).splitlines():  # every mistake in the file, one a line
+                print(f"error: {line}", file=sys.stderr)
     return 1 if failures else 0
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from twig_ecs.behavior import Behavior, installed_behaviors, load_builtin_behaviors, load_class
 from twig_ecs.character import CharacterSpec
 from twig_ecs.components import PainSensor, Perception
-from twig_ecs.errors import TwigError
+from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.parameters import read_parameters, resolve, substitute
 from twig_ecs.store import ROLES
@@ -35,12 +35,14 @@ from twig_ecs.validate import (
     check_keys,
     color,
     fail,
+    gather,
     integer,
     join,
     mapping,
     nonnegative,
     number,
     positive,
+    raise_all,
     read,
     sequence,
     suggest,
@@ -275,38 +277,45 @@ def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | N
     known.update({spec.cls.name: spec.cls for spec in systems if issubclass(spec.cls, Behavior)})
     entities = []
     seen: dict[str, int] = {}
+    errors: list[SceneError] = []  # each entity is checked even when an earlier one is wrong
     raw_entities = read(doc, "entities", "", sequence, [])
     for i, raw in enumerate(raw_entities):
-        here = f"entities[{i}]"
-        raw = read(raw_entities, i, "entities", mapping)
-        first = read_entity(raw, here, library)
-        for spec in repeat(raw, here, first):
-            if spec.name in seen:
-                fail(
-                    raw,
-                    "name",
-                    join(here, "name"),
-                    f"duplicate entity name '{spec.name}' (first used by entities[{seen[spec.name]}])",
-                )
-            seen[spec.name] = i
-            spec.behaviors = read_behaviors(raw, here, known, systems, spec)
-            spec.perception = read_perception(raw, here, spec)
-            entities.append(spec)
-    for i, spec in enumerate(entities):  # names in character commands must exist
+        with gather(errors):
+            here = f"entities[{i}]"
+            raw = read(raw_entities, i, "entities", mapping)
+            first = read_entity(raw, here, library)
+            for spec in repeat(raw, here, first):
+                if spec.name in seen:
+                    fail(
+                        raw,
+                        "name",
+                        join(here, "name"),
+                        f"duplicate entity name '{spec.name}' (first used by entities[{seen[spec.name]}])",
+                    )
+                seen[spec.name] = i
+                spec.behaviors = read_behaviors(raw, here, known, systems, spec)
+                spec.perception = read_perception(raw, here, spec)
+                entities.append(spec)
+    for spec in entities:  # names in character commands must exist
         if spec.character is None:
             continue
+        i = seen[spec.name]  # its place in the file
         for key, value in spec.character.start.items():
             if isinstance(value, str) and key in ("look_at", "reach", "point_at", "hold", "sit"):
                 if value not in seen or value == spec.name:
-                    doc = spec.character.where[key]
+                    where = spec.character.where[key]
                     why = (
                         "itself" if value == spec.name else f"unknown entity '{value}'" + suggest(value, seen)
                     )
-                    fail(doc, key, f"entities[{i}].character.{key}", why)
+                    with gather(errors):
+                        fail(where, key, f"entities[{i}].character.{key}", why)
+    with gather(errors):
+        settings = read_settings(doc)
+    raise_all(errors)
     return ScenePlan(
         name=read(doc, "name", "", text, path.stem),
         file=str(path),
-        settings=read_settings(doc),
+        settings=settings,
         entities=entities,
         library=library,
         systems=systems,

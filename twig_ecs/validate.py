@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import difflib
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from typing import Any, NoReturn
 
 from twig_ecs.errors import SceneError
@@ -25,6 +26,39 @@ def fail(container: Any, key: Any, path: str, message: str) -> NoReturn:
     else:
         file, line = None, None
     raise SceneError(message, file, line, path)
+
+
+class SceneErrors(SceneError):
+    """Several independent mistakes in one file (one entity each, or the settings), all told."""
+
+    def __init__(self, errors: list[SceneError]) -> None:
+        first = errors[0]
+        super().__init__(first.message, first.file, first.line, first.path)
+        self.errors = errors
+        self.args = ("\n".join(str(e) for e in errors),)
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
+@contextmanager
+def gather(errors: list[SceneError]) -> Iterator[None]:
+    """Run one independent part of a document, noting a SceneError in ``errors`` instead of
+    stopping, so the next part is checked too; :func:`raise_all` reports them together."""
+    try:
+        yield
+    except SceneErrors as exc:
+        errors.extend(exc.errors)
+    except SceneError as exc:
+        errors.append(exc)
+
+
+def raise_all(errors: list[SceneError]) -> None:
+    """Raise the gathered errors: the one error itself, or a :class:`SceneErrors` of all."""
+    if len(errors) == 1:
+        raise errors[0]
+    if errors:
+        raise SceneErrors(errors)
 
 
 def suggest(name: str, known: Iterable[str]) -> str:

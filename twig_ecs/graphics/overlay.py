@@ -86,6 +86,8 @@ def _widest(f, lines: Sequence[str]) -> int:
 
 def _wrap(lines: Sequence[str], f, width: int) -> list[str]:
     """Break lines wider than ``width`` pixels, at a space where there is one."""
+    if width < 12 * max(1, f.getbbox("M")[2]):
+        return list(lines)  # too narrow to wrap into anything readable
     out = []
     for line in lines:
         while line and f.getbbox(line)[2] > width:
