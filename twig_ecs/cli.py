@@ -16,13 +16,11 @@ def _add_scene_args(
 ) -> None:
     """The arguments every scene-running command shares: SCENE, --seed, --content."""
     if scene_optional:
-        p.add_argument("scene", nargs="?", default=None,
-                       help="a scene .yaml file or a built-in name (schoolyard, empty)")  # fmt: skip
+        p.add_argument("scene", nargs="?", default=None, help=_scene_help())
     elif scene_default is None:
-        p.add_argument("scene", help="a scene .yaml file or a built-in name (schoolyard, empty)")
+        p.add_argument("scene", help=_scene_help())
     else:
-        p.add_argument("scene", nargs="?", default=scene_default,
-                       help=f"a scene .yaml file or a built-in name (default: {scene_default})")  # fmt: skip
+        p.add_argument("scene", nargs="?", default=scene_default, help=_scene_help(scene_default))
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
@@ -48,11 +46,28 @@ def scene_parameters(args: argparse.Namespace) -> dict[str, str]:
     return out
 
 
-def _positive_seconds(text: str) -> float:
-    value = float(text)
+def positive_seconds(text: str) -> float:
+    """An argparse type: seconds, a number > 0 and at most a day."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds (like 10 or 2.5), got '{text}'") from None  # noqa: E501
     if not 0 < value <= 86400:
-        raise argparse.ArgumentTypeError("seconds must be > 0 and at most 86400")
+        raise argparse.ArgumentTypeError(f"seconds must be > 0 and at most 86400, got {text}")
     return value
+
+
+def builtin_scenes() -> list[str]:
+    """Names of the scenes shipped with twig-ecs."""
+    from twig_ecs.library import builtin_dir
+
+    return sorted(p.stem for p in (builtin_dir() / "scenes").glob("*.yaml"))
+
+
+def _scene_help(default: str | None = None) -> str:
+    known = ", ".join(builtin_scenes())
+    tail = f"; default: {default}" if default else ""
+    return f"a scene .yaml file or a built-in name ({known}{tail})"
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -213,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="run a scene headless and report on it")
     _add_scene_args(p, scene_optional=True)
-    p.add_argument("--seconds", type=_positive_seconds, default=10.0, help="simulated seconds (default 10)")
+    p.add_argument("--seconds", type=positive_seconds, default=10.0, help="simulated seconds (default 10)")
     p.add_argument("--report", choices=["text", "json"], default="text", help="report format")
     p.add_argument("--trace", metavar="FILE.csv", help="write a per-step trace of every character")
     p.add_argument("--plot", metavar="FILE.png", help="plot distance to caregiver and anxiety over time")
@@ -245,6 +260,24 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _unknown_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace, extra: list[str]) -> None:
+    """Exit with the subcommand's usage, naming the unknown arguments (and a likely meant option)."""
+    import difflib
+
+    command = getattr(args, "command", None)
+    sub = next((a for a in parser._subparsers._group_actions if a.choices and command in a.choices), None)
+    target = sub.choices[command] if sub is not None else parser
+    options = [o for action in target._actions for o in action.option_strings]
+    hints = []
+    for word in extra:
+        if word.startswith("-"):
+            close = difflib.get_close_matches(word.split("=")[0], options, n=1, cutoff=0.5)
+            if close:
+                hints.append(f"{word.split('=')[0]}: did you mean {close[0]}?")
+    message = f"unrecognized arguments: {' '.join(extra)}" + (f" ({'; '.join(hints)})" if hints else "")
+    target.error(message)
+
+
 #: Commands that compile a first run's kernels up front with progress on stderr
 #: (``play`` shows it in its window; ``bench`` times the compile itself).
 PREPARED_COMMANDS = ("run", "render", "serve")
@@ -263,7 +296,9 @@ def _prepare_kernels(args: argparse.Namespace) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``twig`` console script."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # say it in the subcommand's words, not with the top-level usage
+        _unknown_arguments(parser, args, extra)
     args.parameters = scene_parameters(args)
     if not getattr(args, "func", None):
         parser.print_help()
