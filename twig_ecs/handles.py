@@ -8,11 +8,16 @@ import esper
 import numpy as np
 
 from twig_ecs.components import Body
+from twig_ecs.errors import TwigError
 from twig_ecs.store import NODE_LOCK_ON_CONTACT, NODE_LOCKED
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
     from twig_ecs.scene import Scene
+
+
+class PassiveBodyError(TwigError, AttributeError):
+    """A character command (``walk``, ``hug``...) asked of a body spawned without ``character=True``."""
 
 
 class BodyHandle:
@@ -28,6 +33,20 @@ class BodyHandle:
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} '{self.name}' ({self.body.template})>"
+
+    def __getattr__(self, attr: str):
+        """Only for names a body lacks: a character's command gets an answer saying what to do."""
+        from twig_ecs.character import CharacterHandle
+
+        if attr.startswith("_") or not hasattr(CharacterHandle, attr):
+            raise AttributeError(f"'{type(self).__name__}' object has no attribute '{attr}'")
+        name = self.__dict__.get("name", "?")
+        template = self.__dict__.get("scene") and self.body.template
+        raise PassiveBodyError(
+            f"'{name}' is a passive body, not a character, so it has no '{attr}'. Spawn it as one: "
+            f"scene.spawn({template or 'humanoid'!r}, name={name!r}, character=True) "
+            "(in a scene file: 'character: true')"
+        )
 
     @property
     def body(self) -> Body:
