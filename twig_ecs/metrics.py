@@ -23,6 +23,10 @@ from twig_ecs.steering import ground_distance
 TRACE_FIELDS = ("time", "character", "x", "z", "behaviour", "focus", "anxiety", "caregiver_distance", "pain")
 
 
+#: Tick intervals on each y axis of the plot.
+TICKS = 5
+
+
 class StoryRecorder:
     """Collects per-character metrics (and optionally a trace) while a scene runs."""
 
@@ -133,13 +137,18 @@ class StoryRecorder:
 
     def plot(self, path: str | Path, size: tuple[int, int] = (1200, 500)) -> None:
         """Distance to the caregiver and anxiety over time, with behaviour bands, as a PNG."""
-        from PIL import Image, ImageDraw
+        from PIL import Image, ImageDraw, ImageFont
 
         rows = [r for r in (self.trace or []) if not math.isnan(r["anxiety"])]
         width, height = size
         image = Image.new("RGB", size, (250, 250, 247))
         draw = ImageDraw.Draw(image)
-        left, right, top, bottom = 60, width - 150, 30, height - 50
+        try:
+            title_font, label_font = ImageFont.load_default(size=18), ImageFont.load_default(size=13)
+        except TypeError:  # Pillow < 10.1: one small bitmap font
+            title_font = label_font = ImageFont.load_default()
+        # room for the title above, distance ticks left, anxiety ticks and the legend right
+        left, right, top, bottom = 70, width - 190, 56, height - 50
         draw.rectangle((left, top, right, bottom), outline=(120, 120, 120))
         if not rows:
             draw.text((left + 10, top + 10), "no attached character to plot", fill=(0, 0, 0))
@@ -171,11 +180,18 @@ class StoryRecorder:
         ):
             pts = [(x(r["time"]), bottom - (bottom - top) * r[series] / scale) for r in rows]
             draw.line(pts, fill=colour, width=2)
-        draw.text((left, 8), f"{name}: distance to caregiver (blue, 0-{d_max:.1f} m) and anxiety (red, 0-1)",
+        draw.text((left, 12), f"{name}: distance to caregiver and anxiety over time", font=title_font,
                   fill=(0, 0, 0))  # fmt: skip
+        for k in range(TICKS + 1):  # y ticks: metres on the left (blue), anxiety on the right (red)
+            y = bottom - (bottom - top) * k / TICKS
+            draw.line((left - 5, y, left, y), fill=(30, 60, 160))
+            draw.line((right, y, right + 5, y), fill=(200, 40, 40))
+            metres, anxiety = f"{d_max * k / TICKS:.1f} m", f"{k / TICKS:.1f}"
+            draw.text((left - 8, y), metres, font=label_font, fill=(30, 60, 160), anchor="rm")
+            draw.text((right + 8, y), anxiety, font=label_font, fill=(200, 40, 40), anchor="lm")
         for k, (b, colour) in enumerate(colours.items()):
-            draw.rectangle((right + 15, top + 20 * k, right + 30, top + 20 * k + 12), fill=colour)
-            draw.text((right + 36, top + 20 * k), b, fill=(0, 0, 0))
+            draw.rectangle((right + 50, top + 20 * k, right + 65, top + 20 * k + 12), fill=colour)
+            draw.text((right + 71, top + 20 * k), b, font=label_font, fill=(0, 0, 0))
         for t in range(0, int(t_end) + 1, max(1, int(t_end) // 10)):
-            draw.text((x(t) - 8, bottom + 8), f"{t}s", fill=(60, 60, 60))
+            draw.text((x(t), bottom + 8), f"{t} s", font=label_font, fill=(60, 60, 60), anchor="mt")
         image.save(path)
