@@ -1,0 +1,250 @@
+"""A newcomer's first run: the kernel cache, the window while compiling, and clear messages."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene, kernels
+from twig_ecs.cli import builtin_scenes, main
+from twig_ecs.graphics.app import Loading, _window_class, load_pyglet_window
+from twig_ecs.graphics.overlay import text_panel
+from twig_ecs.handles import PassiveBodyError
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def run_python(*args: str, env: dict | None = None, cwd: Path | None = None, timeout: float = 300):
+    """Run this Python with -P (the cwd is not put on sys.path), return the finished process."""
+    full = {**os.environ, **(env or {})}
+    return subprocess.run([sys.executable, "-P", *args], capture_output=True, text=True, env=full,
+                          cwd=cwd or ROOT, timeout=timeout)  # fmt: skip
+
+
+# -- the kernel cache ---------------------------------------------------------------------------
+
+
+def test_kernel_cache_is_keyed_by_version_not_install_path_and_shared(tmp_path):
+    cache = tmp_path / "cache"
+    build = run_python("-c", "from twig_ecs import kernels; b = kernels.KernelBuild('empty'); b.wait(); "
+                       "print(len(b.compiled), b.errors, kernels.cache_folder())",  # fmt: skip
+                       env={"TWIG_CACHE_DIR": str(cache)})
+    assert build.returncode == 0, build.stderr
+    count, errors, folder = build.stdout.split(maxsplit=2)
+    assert int(count) >= 5 and errors == "[]"  # the empty scene's kernels compiled in the workers
+    folder = Path(folder.strip())
+    assert folder.parent == cache and folder.name.startswith("kernels-")
+    # kernels are filed by source folder name, not by a hash of where the sources are installed
+    assert {p.name for p in folder.iterdir() if p.is_dir()} <= {"systems", "twig_ecs"}
+
+    other = tmp_path / "elsewhere"  # the same sources at another path: another venv, say
+    for part in ("twig_ecs", "systems", "components", "content"):
+        shutil.copytree(ROOT / part, other / part, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", other / "pyproject.toml")
+    probe = (
+        "import twig_ecs; from numba.core import event; from twig_ecs import Scene\n"
+        "compiled = []\n"
+        "class L(event.Listener):\n"
+        "    def on_start(self, ev): compiled.append(ev.data['dispatcher'].py_func.__name__)\n"
+        "    def on_end(self, ev): pass\n"
+        "event.register('numba:compile', L())\n"
+        "with Scene.load('empty') as s: s.step(2)\n"
+        "print(twig_ecs.__file__, compiled)\n"
+    )
+    reuse = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(cache), "PYTHONPATH": str(other)})
+    assert reuse.returncode == 0, reuse.stderr
+    assert reuse.stdout.startswith(str(other))  # it really ran the copy
+    assert reuse.stdout.strip().endswith("[]")  # and compiled nothing: the cache was shared
+
+
+def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_path):
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("a file where the cache folder would go")
+    env = {"TWIG_CACHE_DIR": str(blocker / "twig-ecs"), "TMPDIR": str(tmp_path / "tmp")}
+    (tmp_path / "tmp").mkdir()
+    version = run_python("-m", "twig_ecs", "--version", env=env)
+    assert version.returncode == 0, version.stderr
+    assert version.stdout.strip().startswith("twig-ecs ")
+    assert version.stderr.count("cannot write the kernel cache") == 1
+    # the fallback is a real cache: seed it with this session's compiled kernels, then run
+    here = kernels.cache_folder()
+    fallback = tmp_path / "tmp" / f"twig-ecs-{os.getuid()}" / here.name
+    shutil.copytree(here, fallback, dirs_exist_ok=True)
+    run = run_python("-m", "twig_ecs", "run", "schoolyard", "--seconds", "1", env=env)
+    assert run.returncode == 0, run.stderr
+    assert "schoolyard: 60 frames" in run.stdout
+    assert run.stderr.count("cannot write the kernel cache") == 1
+    assert str(fallback) in run.stderr
+
+
+def test_checkout_package_finds_components_systems_and_content_beside_it():
+    # as after `pip install .`: the checkout's twig_ecs/ first on sys.path, no editable mapping
+    code = (
+        f"import sys; sys.path.insert(0, {str(ROOT)!r})\n"
+        "sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in repr(f).lower()]\n"
+        "import runpy; sys.argv = ['twig', '--help']; runpy.run_module('twig_ecs', run_name='__main__')\n"
+    )
+    result = run_python("-c", code)
+    assert result.returncode == 0, result.stderr
+    assert "validate" in result.stdout and "play" in result.stdout
+
+
+# -- the window while kernels compile ---------------------------------------------------------
+
+
+class FakeBuild:
+    """A kernel build that finishes after a few polls (the real one: test above)."""
+
+    def __init__(self, polls: int) -> None:
+        self.polls, self.cancelled = polls, False
+        self.fraction = 0.4
+
+    def poll(self) -> bool:
+        self.polls -= 1
+        return self.polls < 0
+
+    def status(self) -> str:
+        return "compiling physics kernels (first run only): 8/20  control_gait  6 s"
+
+    def cancel(self) -> None:
+        self.cancelled = True
+
+
+def test_window_draws_compile_progress_at_once_then_runs_the_scene():
+    window_class = _window_class(load_pyglet_window(headless=True))
+    from twig_ecs.graphics.app import Viewer
+
+    build = FakeBuild(polls=2)
+    loading = Loading(build, lambda: Viewer("schoolyard"), "twig - schoolyard")
+    window = window_class(None, (480, 270), visible=False, loading=loading)
+    try:
+        window.frame()
+        assert window.viewer is None  # still compiling: no scene yet, but a frame drawn
+        frame = window.read_frame().astype(int)
+        sky = frame[0, 0]
+        panel = np.abs(frame - sky).sum(axis=2) > 60
+        rows = np.nonzero(panel.any(axis=1))[0]
+        assert panel.mean() > 0.05 and 60 < rows.mean() < 210  # a panel in the middle of the window
+        window.frame()
+        window.frame()
+        assert window.viewer is not None  # the build finished: the scene is loaded...
+        for _ in range(3):
+            window.frame(elapsed=1 / 60)
+        assert window.viewer.scene.frame >= 2  # ...and steps
+    finally:
+        window.close()
+    assert not build.cancelled
+
+
+def test_closing_the_window_while_compiling_stops_the_build():
+    window_class = _window_class(load_pyglet_window(headless=True))
+    build = FakeBuild(polls=100)
+    window = window_class(None, (160, 90), visible=False, loading=Loading(build, None, "twig - x"))
+    window.frame()
+    window.close()
+    assert build.cancelled
+
+
+def test_serve_window_status_line_shows_server_steps_and_wall_clock_fps():
+    window_class = _window_class(load_pyglet_window(headless=True))
+    from twig_ecs.graphics.app import Viewer
+
+    window = window_class(Viewer("schoolyard"), (320, 180), visible=False)
+    try:
+        scene = window.viewer.scene
+        for _ in range(4):  # as the server does: it steps the scene, the window only draws
+            scene.step(2)
+            window.viewer.accumulator = 0.0
+            window.frame(0.0)
+        status = window.viewer.status_text()
+        assert "served" in status and "sim  0.00 ms/step" not in status
+        fps = float(status.split("fps")[1].split("|")[0])
+        assert fps < 1000  # not the 9332 fps of a zero elapsed time
+    finally:
+        window.close()
+
+
+def test_inspector_and_long_messages_fit_a_1280_by_720_window():
+    from twig_ecs.graphics.app import Viewer
+
+    viewer = Viewer("schoolyard")
+    try:
+        viewer.show_inspector = True
+        viewer.say("reload failed: " + "x.yaml:12: entities[3].character.look_at: unknown entity " * 4)
+        panels = {key: image for key, image, _, _ in viewer.panels((1280, 720), 1.0)}
+        assert panels["inspector"].size[0] <= 1280 - 20
+        assert panels["status"].size[0] <= 1280 - 20
+        assert panels["status"].size[1] > text_panel(["one line"]).size[1]  # the message wrapped
+    finally:
+        viewer.close()
+
+
+# -- messages a newcomer meets ----------------------------------------------------------------
+
+
+def test_walk_on_a_passive_body_says_to_spawn_a_character():
+    with Scene.load("empty") as scene:
+        kid = scene.spawn("humanoid", name="kid")
+        with pytest.raises(PassiveBodyError, match=r"spawn\('humanoid', name='kid', character=True\)"):
+            kid.walk((0, 0, 1))
+        assert not hasattr(kid, "hug")  # still an AttributeError for hasattr
+        with pytest.raises(AttributeError, match="no attribute 'nope'"):
+            kid.nope  # noqa: B018
+
+
+def test_bad_seconds_and_unknown_options_get_the_subcommands_words(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "schoolyard", "--seconds", "abc"])
+    err = capsys.readouterr().err
+    assert "expected a number of seconds" in err and "_positive_seconds" not in err
+    with pytest.raises(SystemExit):
+        main(["run", "--secs", "1"])
+    err = capsys.readouterr().err
+    assert err.startswith("usage: twig run") and "did you mean --seconds?" in err
+
+
+def test_help_lists_every_built_in_scene(capsys):
+    with pytest.raises(SystemExit):
+        main(["play", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert set(builtin_scenes()) >= {"schoolyard", "playground", "crowd", "empty"}
+    assert ", ".join(builtin_scenes()) in out
+
+
+def test_validate_reports_every_error_in_a_file(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(
+        "twig: 1\nname: bad\nsettings: {gravity: [0, x, 0]}\nentities:\n"
+        "  - {name: a, body: humanod}\n  - {name: b, body: ball, position: [1, 2]}\n"
+        "  - {name: c, body: humanoid, character: {look_at: nobody}}\n"
+    )
+    assert main(["validate", str(bad)]) == 1
+    errors = capsys.readouterr().err.strip().splitlines()
+    assert len(errors) == 4 and all(line.startswith("error: ") for line in errors)
+    assert any("entities[0].body" in e and "humanoid" in e for e in errors)
+    assert any("entities[1].position" in e for e in errors)
+    assert any("entities[2].character.look_at" in e for e in errors)
+    assert any("settings.gravity" in e for e in errors)
+
+
+def test_plot_has_a_clear_title_and_y_ticks(tmp_path):
+    from PIL import Image
+
+    from twig_ecs.report import run_with_report
+
+    path = tmp_path / "p.png"
+    run_with_report("schoolyard", 3.0, plot=str(path))
+    image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    dark = image.sum(axis=2) < 400
+    title_rows = np.nonzero(dark[:56, 70:700].any(axis=1))[0]
+    assert len(title_rows) > 8 and title_rows.max() < 50  # a title, with a gap above the axes
+    left_labels = dark[56:460, :62] | (np.abs(image[56:460, :62] - [30, 60, 160]).sum(axis=2) < 120)
+    label_rows = np.nonzero(left_labels.any(axis=1))[0]
+    clusters = 1 + np.count_nonzero(np.diff(label_rows) > 5)
+    assert clusters >= 5  # tick labels down the distance axis
