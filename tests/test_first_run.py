@@ -248,3 +248,16 @@ def test_plot_has_a_clear_title_and_y_ticks(tmp_path):
     label_rows = np.nonzero(left_labels.any(axis=1))[0]
     clusters = 1 + np.count_nonzero(np.diff(label_rows) > 5)
     assert clusters >= 5  # tick labels down the distance axis
+
+
+def test_serve_record_on_a_busy_port_fails_clearly_and_writes_nothing(tmp_path, capsys):
+    import socket
+
+    replay = tmp_path / "s.replay"
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        assert main(["serve", "schoolyard", "--port", str(port), "--record", str(replay)]) == 2
+    assert f"port {port}" in capsys.readouterr().err
+    assert not replay.exists()

@@ -42,6 +42,8 @@ from pathlib import Path
 _PACKAGE = Path(__file__).resolve().parent
 #: Cache folders of other kernel versions kept besides the current one.
 KEEP_OLD = 3
+#: ...and older ones are deleted only when unused for this many days.
+STALE_DAYS = 7
 #: Kernels a scene compiles when no earlier build says how many (the schoolyard: 20).
 DEFAULT_KERNEL_COUNT = 20
 #: What a :class:`KernelBuild` worker process runs.
@@ -143,11 +145,18 @@ def _warn(message: str) -> None:
 
 
 def _prune(base: Path, current: Path) -> None:
-    """Delete all but the newest few cache folders of older kernel versions."""
+    """Delete cache folders of kernel versions unused for ``STALE_DAYS``, beyond the newest few.
+
+    Several checkouts or venvs of different versions may share the cache folder and run at
+    once; a version still in use (its folder touched at each start) is never deleted.
+    """
     try:
+        os.utime(current)  # in use now
+        cutoff = time.time() - STALE_DAYS * 86400
         old = sorted((p for p in base.glob("kernels-*") if p != current), key=lambda p: p.stat().st_mtime)
         for path in old[:-KEEP_OLD] if len(old) > KEEP_OLD else []:
-            shutil.rmtree(path, ignore_errors=True)
+            if path.stat().st_mtime < cutoff:
+                shutil.rmtree(path, ignore_errors=True)
     except OSError:
         pass
 

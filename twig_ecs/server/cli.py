@@ -95,10 +95,29 @@ def check_binding(host: str, token: str | None) -> None:
         )
 
 
+def check_ports_free(host: str, ports) -> None:
+    """Fail with a clear error when a port to serve on is taken (port 0 or None: any port)."""
+    import socket
+
+    for port in ports:
+        if not port:
+            continue
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as asyncio's server does
+            try:
+                probe.bind((host, port))
+            except OSError as exc:
+                raise TwigError(f"cannot serve on {host} port {port}: {exc.strerror} (another twig serve? "
+                                "choose a free one with --port, or --port 0 for any); nothing was started "
+                                "or recorded") from None  # fmt: skip
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     """Load the scene and serve it until interrupted (or the window closes)."""
     token = args.token or os.environ.get(TOKEN_ENV) or None
     check_binding(args.host, token)
+    check_ports_free(args.host, (args.port, args.twig_port))  # before a replay file is written
     from twig_ecs.server.core import Server
 
     window = None
