@@ -24,9 +24,9 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
 
     p = subparsers.add_parser("render", help="run a scene offscreen and write a PNG, GIF or MP4")
     add_scene_args(p)
-    from twig_ecs.cli import positive_seconds
+    from twig_ecs.cli import seconds_number
 
-    p.add_argument("--seconds", type=positive_seconds, default=2.0, help="simulated seconds (default 2)")
+    p.add_argument("--seconds", type=seconds_number, default=2.0, help="simulated seconds (default 2)")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="output file: .png (last frame), .gif or .mp4 (every frame)")  # fmt: skip
     p.add_argument("--size", default="1280x720", metavar="WxH", help="image size (default 1280x720)")
