@@ -32,9 +32,12 @@ def run_python(*args: str, env: dict | None = None, cwd: Path | None = None, tim
 
 def test_kernel_cache_is_keyed_by_version_not_install_path_and_shared(tmp_path):
     cache = tmp_path / "cache"
-    build = run_python("-c", "from twig_ecs import kernels; b = kernels.KernelBuild('empty'); b.wait(); "
-                       "print(len(b.compiled), b.errors, kernels.cache_folder())",  # fmt: skip
-                       env={"TWIG_CACHE_DIR": str(cache)})
+    build = run_python(
+        "-c",
+        "from twig_ecs import kernels; b = kernels.KernelBuild('empty'); b.wait(); "
+        "print(len(b.compiled), b.errors, kernels.cache_folder())",  # fmt: skip
+        env={"TWIG_CACHE_DIR": str(cache)},
+    )
     assert build.returncode == 0, build.stderr
     count, errors, folder = build.stdout.split(maxsplit=2)
     assert int(count) >= 5 and errors == "[]"  # the empty scene's kernels compiled in the workers

@@ -51,7 +51,9 @@ def seconds_number(text: str) -> float:
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds (like 10 or 2.5), got '{text}'") from None  # noqa: E501
+        raise argparse.ArgumentTypeError(
+            f"expected a number of seconds (like 10 or 2.5), got '{text}'"
+        ) from None  # noqa: E501
 
 
 def positive_seconds(text: str) -> float:
