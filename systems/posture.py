@@ -113,7 +113,7 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
             v = walk_speed(sp, leg_length[c], g)
             v, step, _, t_fly = step_timing(v, leg_length[c], g)
             turn = yaw_error(fx, fz, wx / sp, wz / sp)
-            v *= TURN_SLOW + (1.0 - TURN_SLOW) * max(0.0, math.cos(turn))
+            v *= TURN_SLOW + (1.0 - TURN_SLOW) * min(1.0, 1.0 + math.cos(turn))  # slower past 90 deg
             wx *= v / sp
             wz *= v / sp
 
