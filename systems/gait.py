@@ -233,9 +233,9 @@ class GaitSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes,
-                     ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
-                     ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+        control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
+                     ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale,
+                     ch.leg_length, ch.count, self.scene.settings.gravity, dt)  # fmt: skip
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

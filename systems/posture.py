@@ -72,8 +72,8 @@ UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
 
 # fmt: off
 @njit(cache=True)
-def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode, mode_time, walk, seat, head_dir, stand_height,
-                    crouch, lean, scale, leg_length, n_chars, gravity, dt):
+def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode, mode_time, walk, seat,
+                    head_dir, stand_height, crouch, lean, scale, leg_length, n_chars, gravity, dt):
     """Add posture accelerations for every character (see the module docstring)."""
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
@@ -257,6 +257,6 @@ class PostureSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_posture(n.pos, n.prev, n.acc, n.mass, n.radius, n.flags, n.move_time, ch.nodes, ch.mode, ch.mode_time, ch.walk,
-                        ch.seat, ch.head_dir, ch.stand_height, ch.crouch, ch.lean, ch.scale, ch.leg_length, ch.count,
-                        self.scene.settings.gravity, dt)  # fmt: skip
+        control_posture(n.pos, n.prev, n.acc, n.mass, n.radius, n.flags, n.move_time, ch.nodes, ch.mode,
+                        ch.mode_time, ch.walk, ch.seat, ch.head_dir, ch.stand_height, ch.crouch, ch.lean,
+                        ch.scale, ch.leg_length, ch.count, self.scene.settings.gravity, dt)  # fmt: skip

@@ -228,7 +228,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
     """The lab's printed report: walk table, U-turn pitch and idle re-steps beside a person's."""
     lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
     head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
-            f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'lift cm':>7} {'ahead cm':>8}")  # fmt: skip
+            f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'lift cm':>7} "
+            f"{'ahead cm':>8}")  # fmt: skip
     lines += [head, "-" * len(head)]
     for r in rows:
         lines.append(
@@ -236,9 +237,16 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
             f"{r['step']:6.2f} {r['step'] / r['legs']:6.2f} {r['knee']:5.0f} {r['pelvis']:6.2f} "
             f"{100 * r['bob']:6.1f} {r['double']:6.2f} {100 * r['lift']:7.1f} {100 * r['ahead']:8.1f}"
         )
-    lines += ["", "A person: " + "; ".join(f"{k}: {v}" for k, v in HUMAN.items() if k not in ("uturn", "idle"))]
-    lines += ["", "U-turn at 1.2 m/s, largest torso pitch (deg): "
-              + ", ".join(f"{h:.2f} m: {p:.0f}" for h, p in uturns.items()) + f"   (a person: {HUMAN['uturn']})"]
+    lines += [
+        "",
+        "A person: " + "; ".join(f"{k}: {v}" for k, v in HUMAN.items() if k not in ("uturn", "idle")),
+    ]
+    lines += [
+        "",
+        "U-turn at 1.2 m/s, largest torso pitch (deg): "
+        + ", ".join(f"{h:.2f} m: {p:.0f}" for h, p in uturns.items())
+        + f"   (a person: {HUMAN['uturn']})",
+    ]
     lines += ["Foot moves in 10 s standing in the playground: "
               + ", ".join(f"{name} ({IDLE[name]}): {n}" for name, n in idle.items())
               + f"   (a person: {HUMAN['idle']})"]  # fmt: skip
@@ -246,7 +254,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
 
 
 def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, frames: int = 12,
-                  every: float = 0.1, size: tuple[int, int] = (320, 320), columns: int = 6) -> Path:  # fmt: skip
+                  every: float = 0.1, size: tuple[int, int] = (320, 320),
+                  columns: int = 6) -> Path:  # fmt: skip
     """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
     from PIL import Image
 
@@ -267,7 +276,7 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
                 target = person.position.copy()
                 target[1] = 0.5 * height * 0.95
                 # side view: the camera on the character's left (+x), level with its hips
-                cam = OrbitCamera(target, yaw=90.0, pitch=5.0, distance=2.6 * height)
+                cam = OrbitCamera(target, yaw=90.0, pitch=5.0, distance=1.8 * height)
                 image = Image.fromarray(off.render(scene, cam, size))
                 sheet.paste(image, ((k % columns) * size[0], (k // columns) * size[1]))
                 scene.run(every)
