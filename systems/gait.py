@@ -39,7 +39,7 @@ LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (s
 MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
 SKIP = 0.08  # of the leg's length: a walking step this short is not worth taking
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
-STRETCH = 0.99  # a planted leg behind its hip stretched to this fraction of its length steps at once
+STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
@@ -146,8 +146,10 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
             # foot at the end of a straight leg would hold the hip back like a rope
             stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * legs
             if moving:
-                if ex * dx + ez * dz > 0.0:
-                    stretch = -1.0  # a straight leg ahead is the stance leg vaulting
+                if ex * dx + ez * dz > -MOST_AHEAD * legs:
+                    # a straight leg ahead, or not far behind, is the stance leg
+                    # vaulting: the pelvis rides down its arc until the step is due
+                    stretch = -1.0
                 need = legs if f != last_step[c] and due else -1.0
             elif due:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s

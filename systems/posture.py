@@ -56,7 +56,7 @@ LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
 WALK_HEIGHT = 0.985  # of a planted leg's length: how far its hip rides from its foot at a walk
 LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
-WALK_ACC = 8.0  # g: the most the pelvis speeds up or slows down at a walk (a person: ~0.3-0.5)
+WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
@@ -106,6 +106,7 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
         fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
         step = 0.0
         t_fly = 1.0
+        target_vy = 0.0
         if moving and g > 1e-6:
             # the gait decides the top speed per body size (kernelmath.walk_speed); the
             # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
@@ -132,21 +133,32 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
                 # feet spread (the bob)
                 reach = WALK_HEIGHT * leg_length[c]
                 top = 1e9
+                top_rate = 0.0
                 for f in range(2):
                     i = nd[L_FOOT + f]
                     if flags[i] & NODE_LOCKED:
                         h = nd[L_HIP + f]
                         x2 = (pos[h, 0] - pos[i, 0]) ** 2 + (pos[h, 2] - pos[i, 2]) ** 2
-                        top = min(top, pos[i, 1] + math.sqrt(max(0.0, reach * reach - x2)))
+                        rise = math.sqrt(max(1e-6, reach * reach - x2))
+                        if pos[i, 1] + rise < top:
+                            top = pos[i, 1] + rise
+                            # how fast that height changes as the hip moves over the foot:
+                            # fed forward, so the pelvis keeps to the arc rather than lag
+                            # above it (and stretch the trailing leg early)
+                            top_rate = -((pos[h, 0] - pos[i, 0]) * vpx + (pos[h, 2] - pos[i, 2]) * vpz) / rise
                     elif flags[i] & NODE_MOVING and move_time[i] < LANDING * t_fly:
                         # coming down: low enough that the foot lands within the leg's
                         # reach, LEAD steps ahead (else the landing foot drags the hip)
                         ahead = LEAD * step
-                        top = min(top, radius[i] + math.sqrt(max(0.0, reach * reach - ahead * ahead)))
+                        landing = radius[i] + math.sqrt(max(0.0, reach * reach - ahead * ahead))
+                        if landing < top:
+                            top = landing
+                            top_rate = 0.0
                 if top < 1e8:
                     target_y = max(WALK_LOWEST * stand_height[c], top + pos[p, 1] - pos[nd[L_HIP], 1])
+                    target_vy = top_rate
             target_y -= crouch[c]  # stooping to reach something low
-        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * vpy
+        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy)
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz

@@ -18,9 +18,9 @@ def test_adult_walks_tall_on_nearly_straight_knees(adult_walk):
     w = adult_walk
     assert w["knee"] <= 35.0, "knees near straight in stance (a person: 5-20 degrees)"
     assert w["pelvis"] >= 0.9, "the pelvis stays near standing height"
-    assert 1.0 <= w["speed"] <= 1.4, "keeps the pace it was asked for"
+    assert 1.0 <= w["speed"] <= 1.45, "keeps about the pace it was asked for"
     # before: 3.0 steps/s of 0.39 m; a person: 1.8-2.0 of 0.65-0.75 m
-    assert 1.6 <= w["cadence"] <= 2.7
+    assert 1.6 <= w["cadence"] <= 2.4
     assert w["step"] >= 0.5
     assert w["lift"] >= 0.06, "a visible foot lift in swing"
     assert w["ahead"] > 0.05, "the foot lands ahead of the hip"
@@ -31,7 +31,7 @@ def test_smaller_bodies_step_faster_but_not_a_scurry():
     child = walklab.measure_walk(1.05, 1.0)
     big_child = walklab.measure_walk(1.35, 1.0)
     assert child["knee"] <= 40.0
-    assert child["cadence"] <= 3.8, "before: 4.9-5.2 steps/s"
+    assert child["cadence"] <= 3.6, "before: 4.9-5.2 steps/s"
     assert big_child["cadence"] <= child["cadence"], "a longer leg steps less often at the same speed"
     assert child["pelvis"] >= 0.9 and big_child["pelvis"] >= 0.9
 
@@ -79,7 +79,7 @@ def test_lab_helpers_measure_a_known_track():
     bent = walklab.knee_flexion(
         np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.5, 0.5]), np.array([0.0, 0.0, 0.0])
     )
-    assert straight == pytest.approx(0.0, abs=1e-6) and bent == pytest.approx(90.0)
+    assert straight == pytest.approx(0.0, abs=1e-3) and bent == pytest.approx(90.0)
 
 
 def test_walklab_report_and_contact_sheet(tmp_path, monkeypatch):

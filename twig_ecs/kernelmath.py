@@ -27,7 +27,7 @@ ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave
 #: beyond 0.3 this point-footed walk loses its rhythm (docs/locomotion.md).
 WALK_FROUDE_MAX = 0.3
 #: Step length / leg length = STEP_GAIN * Froude ** STEP_POWER (a person: 0.7-0.8 at 1.2 m/s).
-STEP_GAIN, STEP_POWER = 1.25, 0.3
+STEP_GAIN, STEP_POWER = 1.35, 0.3
 #: Longest step period (s) per sqrt(L / g): people shuffle rather than step slower.
 MAX_STEP_PERIOD = 2.6
 
