@@ -25,6 +25,7 @@ from twig_ecs.kernelmath import (
     PELVIS,
     R_HAND,
     STAND,
+    clamp,
     forward_xz,
     step_length,
     walk_speed,
@@ -185,7 +186,9 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
         o = nd[L_FOOT + 1 - best]
         # lead by the pelvis's actual pace along the walk only: its sideways sway is
         # not where it is going; and never further ahead than the leg reaches
-        along = max(0.0, vx * dx + vz * dz) * t_fly + min(LEAD * step, MOST_AHEAD * legs)
+        # (at most the walk's pace: a foot placed ahead of a pelvis running fast would
+        # drag it on faster still)
+        along = clamp(vx * dx + vz * dz, 0.0, v) * t_fly + min(LEAD * step, MOST_AHEAD * legs)
         tx = pos[p, 0] + dx * along + side * lx
         tz = pos[p, 2] + dz * along + side * lz
         # land at least most of a hip width to the side of the planted foot: a pelvis

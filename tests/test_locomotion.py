@@ -52,7 +52,7 @@ def test_top_walk_speed_is_capped_per_body_size():
     from twig_ecs.kernelmath import WALK_FROUDE_MAX, walk_speed
 
     assert walk_speed(3.0, 0.5, 9.81) == pytest.approx(np.sqrt(WALK_FROUDE_MAX * 9.81 * 0.5))
-    assert walk_speed(1.0, 0.87, 9.81) == 1.0
+    assert walk_speed(1.0, 0.87, 9.81) == 1.0  # an adult at 1 m/s is well inside its walk
     # through the public API: a small child asked to hurry walks at its own top speed
     child = walklab.measure_walk(1.05, 3.0)
     assert child["speed"] < 0.8 * 3.0
