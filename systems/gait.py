@@ -38,6 +38,7 @@ SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down
 LIFT = 0.14  # of the leg's length: the top of a foot's arc above the ground
 LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
 MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
+CATCH = 0.12  # of the leg's length: a foot this far off its stance range steps at once
 SKIP = 0.08  # of the leg's length: a walking step this short is not worth taking
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
 STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
@@ -152,6 +153,11 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
                     # vaulting: the pelvis rides down its arc until the step is due
                     stretch = -1.0
                 need = legs if f != last_step[c] and due else -1.0
+                # off the stance's range (pushed, or turning): a catching step whatever the
+                # rhythm - far behind its hip, or far out to the side
+                behind = -(ex * dx + ez * dz) - (LEAD * step + CATCH * legs)
+                side = abs(ex * dz - ez * dx) - (half + CATCH * legs)
+                need = max(need, behind, side)
             elif due:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
             else:
