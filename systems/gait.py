@@ -37,7 +37,10 @@ STRIDE = 0.10  # m (at 1.75 m tall): how far behind its hip a foot may fall, at 
 STRIDE_PER_SPEED = 0.12  # m more per m/s of walking speed
 REACH = 0.8  # of the longest step the legs allow at the pelvis's height
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
-STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once
+STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once (walking)
+STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
+STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
+STILL_STRETCH = 0.95  # standing: only a leg this straight forces a step (a standing leg is at 0.96)
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
@@ -116,7 +119,11 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             # a leg close to straight must step whatever else: a locked foot at the end
             # of a straight leg would hold the hip back like a rope
             ey = pos[i, 1] - pos[h, 1]
-            stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * leg_length[c]
+            # standing still, a leg at standing height is already 0.96 straight: only a
+            # leg pulled really straight (leaning out of the base of support) steps, or a
+            # character pointing or waving would step in place several times a second
+            limit = STRETCH if moving else STILL_STRETCH
+            stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - limit * leg_length[c]
             if moving:
                 need = -(ex * dx + ez * dz) - reach  # how far behind, past the trigger
                 # a foot off to the side (a turn) must step as well
@@ -172,6 +179,11 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             side = half if best == 0 else -half
             tx = pos[p, 0] + dx * along + side * lx
             tz = pos[p, 2] + dz * along + side * lz
+        if (not moving and best_need < leg_length[c] and vx * vx + vz * vz < (STILL_PACE * s) ** 2
+                and (tx - pos[i, 0]) ** 2 + (tz - pos[i, 2]) ** 2 < (STILL_SKIP * leg_length[c]) ** 2):
+            # standing and not pushed about, a step this short would be a fidget: the
+            # foot stays planted (a body knocked or dragged still steps to catch itself)
+            continue
         ty = radius[i]
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING

@@ -264,6 +264,9 @@ def build_parser() -> argparse.ArgumentParser:
         except ImportError:  # a part not built in this checkout
             continue
         register_commands(sub, _add_scene_args)
+    from twig_ecs.walklab import register_commands as register_walklab
+
+    register_walklab(sub)
     return parser
 
 

@@ -1,0 +1,73 @@
+"""Believable locomotion (issue 14), measured through the public API with the walk lab's helpers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene, walklab
+
+
+def test_walk_lab_measures_a_straight_walk_through_the_public_api():
+    w = walklab.measure_walk(1.75, 1.2, settle=1.5, seconds=3.0)
+    assert 1.0 <= w["speed"] <= 1.4, "the walker keeps about the pace it was asked for"
+    assert w["cadence"] > 1.0 and w["step"] > 0.2, "touchdowns alternate and move it on"
+    assert 0.0 <= w["double"] <= 1.0 and w["lift"] > 0.0
+    assert w["froude"] == pytest.approx(1.2**2 / (9.81 * w["legs"]))
+
+
+def test_standing_characters_keep_their_feet_planted_while_using_arms_and_eyes():
+    moves = walklab.measure_idle(seconds=10.0)
+    assert set(moves) == set(walklab.IDLE)
+    for name, n in moves.items():
+        assert n <= 2, f"{name} re-stepped {n} times in 10 s (before: 26-43)"
+
+
+def test_lab_helpers_measure_a_known_track():
+    # a foot planted for 10 steps then lifted for 10, twice: 2 lifts, cadence from touchdowns
+    locked = np.array(([True] * 10 + [False] * 10) * 2 + [True] * 5)
+    both = np.stack([locked, np.roll(locked, 10)], axis=1)
+    pos = {name: np.zeros((len(locked), 3)) for name in walklab.TRACKED}
+    track = walklab.Track(0.1, pos, both, stand_height=1.0, radius=0.05)
+    assert walklab.foot_moves(track) == 4
+    downs = walklab.touchdowns(track)
+    assert [k for k, f in downs if f == 0] == [20, 40]
+    straight = walklab.knee_flexion(np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.5, 0.0]), np.zeros(3))
+    bent = walklab.knee_flexion(
+        np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.5, 0.5]), np.array([0.0, 0.0, 0.0])
+    )
+    assert straight == pytest.approx(0.0, abs=1e-3) and bent == pytest.approx(90.0)
+
+
+def test_walklab_report_and_contact_sheet(tmp_path, monkeypatch):
+    rows = [dict(height=1.75, asked=1.2, speed=1.2, froude=0.17, cadence=2.0, step=0.6, legs=0.87, knee=20.0,
+                 pelvis=1.0, bob=0.04, double=0.2, lift=0.1, ahead=0.2)]  # fmt: skip
+    text = walklab.format_report(rows, {1.75: 12.0}, {"pointer": 0})
+    assert "1.75" in text and "pointer (points): 0" in text and "1.8-2.0" in text
+    sheet = walklab.contact_sheet(tmp_path / "sheet.png", frames=2, size=(64, 64), columns=2)
+    from PIL import Image
+
+    image = np.asarray(Image.open(sheet))
+    assert image.shape == (64, 128, 3)
+    assert image.std() > 5.0, "the frames show something"
+
+
+def test_planted_feet_do_not_slide_in_a_turn(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", height=1.35, character=True)
+    scene.run(0.5)
+    person.walk((0.0, 0.0, 1.0))
+    scene.run(2.0)
+    person.walk((1.0, 0.0, -0.2))
+    held: dict[str, np.ndarray | None] = {"l_foot": None, "r_foot": None}
+    slide = 0.0
+    for _ in range(180):
+        scene.step()
+        for foot in held:
+            if person.is_locked(foot):
+                held[foot] = person.node(foot) if held[foot] is None else held[foot]
+                slide = max(slide, float(np.linalg.norm(person.node(foot) - held[foot])))
+            else:
+                held[foot] = None
+    assert slide == 0.0

@@ -1,0 +1,314 @@
+"""The walk lab (``twig walklab``): gait figures per body size and speed, beside a person's.
+
+Everything is measured through the public API - node positions and foot locks of a
+character handle, step by step - so the tests use the same helpers
+(:func:`record`, :func:`walk_figures`, :func:`torso_pitch`, :func:`foot_moves`).
+Reference figures are those of docs/locomotion.md (BELIEVABILITY.md: walking, dynamic
+similarity, turning, standing).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+#: Nodes a track records.
+TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot")
+#: Body heights (m) the lab measures: a small child, a big child, an adult.
+SIZES = (1.05, 1.35, 1.75)
+#: Walk speeds (m/s) the lab asks each size for.
+SPEEDS = (0.8, 1.0, 1.2, 1.6)
+
+
+@dataclass
+class Track:
+    """Per-step node positions (steps, node, 3) and foot locks (steps, 2) of one character."""
+
+    dt: float
+    pos: dict[str, np.ndarray]
+    locked: np.ndarray  # bool (steps, 2): left, right foot planted
+    stand_height: float
+    radius: float  # foot node radius (m)
+    heading: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+
+
+def record(handle, seconds: float) -> Track:
+    """Step ``handle``'s scene for ``seconds``, recording the tracked nodes and foot locks."""
+    scene = handle.scene
+    n = int(round(seconds / scene.dt))
+    pos = {name: np.zeros((n, 3)) for name in TRACKED}
+    locked = np.zeros((n, 2), dtype=bool)
+    for k in range(n):
+        scene.step()
+        for name in TRACKED:
+            pos[name][k] = handle.node(name)
+        locked[k] = handle.is_locked("l_foot"), handle.is_locked("r_foot")
+    radius = float(scene.state.nodes.radius[handle._row("l_foot")])
+    walk = handle.walk_velocity
+    norm = float(np.linalg.norm(walk))
+    heading = walk / norm if norm > 1e-9 else np.array([0.0, 0.0, 1.0])
+    return Track(scene.dt, pos, locked, handle.stand_height, radius, heading)
+
+
+def knee_flexion(hip: np.ndarray, knee: np.ndarray, foot: np.ndarray) -> np.ndarray:
+    """Knee flexion (degrees, 0 = straight) from hip-knee-foot positions (arrays of points)."""
+    a = hip - knee
+    b = foot - knee
+    cos = np.sum(a * b, axis=-1) / (np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1) + 1e-12)
+    return 180.0 - np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def torso_pitch(track: Track) -> np.ndarray:
+    """Torso lean from the vertical (degrees) per step: the pelvis-to-neck line."""
+    v = track.pos["neck"] - track.pos["pelvis"]
+    horizontal = np.linalg.norm(v[:, [0, 2]], axis=1)
+    return np.degrees(np.arctan2(horizontal, v[:, 1]))
+
+
+def touchdowns(track: Track) -> list[tuple[int, int]]:
+    """(step, foot) of every touchdown: a foot becoming planted."""
+    out = []
+    for f in range(2):
+        col = track.locked[:, f]
+        for k in np.nonzero(col[1:] & ~col[:-1])[0]:
+            out.append((int(k) + 1, f))
+    return sorted(out)
+
+
+def foot_moves(track: Track) -> int:
+    """How many times a planted foot came up (a step taken)."""
+    return int(np.sum(track.locked[:-1] & ~track.locked[1:]))
+
+
+def walk_figures(track: Track) -> dict[str, float]:
+    """Cadence, step length, stance knee flexion, pelvis height, double support, foot lift."""
+    downs = touchdowns(track)
+    seconds = len(track.locked) * track.dt
+    out: dict[str, float] = {}
+    if len(downs) >= 2:
+        span = (downs[-1][0] - downs[0][0]) * track.dt
+        out["cadence"] = (len(downs) - 1) / span if span > 0 else math.nan
+    else:
+        out["cadence"] = 0.0
+    # step length: along the walk, from one foot's touchdown to the other foot's next one
+    feet = (track.pos["l_foot"], track.pos["r_foot"])
+    lengths = []
+    for (k0, f0), (k1, f1) in zip(downs, downs[1:], strict=False):
+        if f0 != f1:
+            lengths.append(float((feet[f1][k1] - feet[f0][k0]) @ track.heading))
+    out["step"] = float(np.median(lengths)) if lengths else 0.0
+    flex = []
+    for f, side in enumerate("lr"):
+        angles = knee_flexion(track.pos[f"{side}_hip"], track.pos[f"{side}_knee"], feet[f])
+        flex.append(angles[track.locked[:, f]])
+    stance = np.concatenate(flex)
+    out["knee"] = float(np.median(stance)) if stance.size else math.nan
+    out["pelvis"] = float(track.pos["pelvis"][:, 1].mean() / track.stand_height)
+    out["bob"] = float(np.ptp(track.pos["pelvis"][:, 1]))
+    out["double"] = float(np.mean(track.locked[:, 0] & track.locked[:, 1]))
+    # foot lift: the highest a foot's bottom gets between lifting off and landing
+    lifts = []
+    for f in range(2):
+        col = track.locked[:, f]
+        k = 0
+        while k < len(col):
+            if not col[k]:
+                j = k
+                while j < len(col) and not col[j]:
+                    j += 1
+                if k > 0 and j < len(col):  # a whole swing inside the window
+                    lifts.append(float(feet[f][k:j, 1].max() - track.radius))
+                k = j
+            else:
+                k += 1
+    out["lift"] = float(np.median(lifts)) if lifts else 0.0
+    # landing ahead of the hip: the foot's lead over its hip at touchdown
+    ahead = [float((feet[f][k] - track.pos[("l_hip", "r_hip")[f]][k]) @ track.heading) for k, f in downs]
+    out["ahead"] = float(np.median(ahead)) if ahead else 0.0
+    out["speed"] = float((track.pos["pelvis"][-1] - track.pos["pelvis"][0]) @ track.heading / seconds)
+    return out
+
+
+def leg_length(handle) -> float:
+    """Hip-knee plus knee-foot (m) as the body stands now."""
+    hip, knee, foot = (handle.node(n) for n in ("l_hip", "l_knee", "l_foot"))
+    return float(np.linalg.norm(hip - knee) + np.linalg.norm(knee - foot))
+
+
+def _scene():
+    from twig_ecs import Scene
+
+    return Scene.load("empty")
+
+
+def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: float = 5.0) -> dict[str, float]:
+    """Figures of a ``height`` m character walking straight at ``speed`` m/s (after ``settle`` s)."""
+    scene = _scene()
+    try:
+        person = scene.spawn("humanoid", name="walker", height=height, character=True)
+        scene.run(0.5)
+        legs = leg_length(person)
+        person.walk((0.0, 0.0, speed))
+        scene.run(settle)
+        figures = walk_figures(record(person, seconds))
+        figures["froude"] = speed**2 / (9.81 * legs)
+        figures["legs"] = legs
+        return figures
+    finally:
+        scene.close()
+
+
+def measure_uturn(height: float, speed: float = 1.2) -> float:
+    """Largest torso pitch (degrees) of a ``height`` m character turning back at ``speed``."""
+    scene = _scene()
+    try:
+        person = scene.spawn("humanoid", name="turner", height=height, character=True)
+        scene.run(0.5)
+        person.walk((0.0, 0.0, speed))
+        scene.run(3.0)
+        person.walk((0.0, 0.0, -speed))
+        return float(torso_pitch(record(person, 4.0)).max())
+    finally:
+        scene.close()
+
+
+#: Playground characters that stand in place and use their arms or eyes, and what they do.
+IDLE = {"pointer": "points", "waver": "waves", "reacher": "reaches", "watcher": "watches"}
+
+
+def measure_idle(seconds: float = 10.0, settle: float = 1.0) -> dict[str, int]:
+    """Foot moves in ``seconds`` of each standing playground character (after ``settle`` s)."""
+    from twig_ecs import Scene
+
+    scene = Scene.load("playground")
+    try:
+        scene.run(settle)
+        handles = {name: scene.entity(name) for name in IDLE}
+        moves = dict.fromkeys(IDLE, 0)
+        before = {name: (h.is_locked("l_foot"), h.is_locked("r_foot")) for name, h in handles.items()}
+        for _ in range(int(round(seconds / scene.dt))):
+            scene.step()
+            for name, h in handles.items():
+                now = (h.is_locked("l_foot"), h.is_locked("r_foot"))
+                moves[name] += sum(1 for a, b in zip(before[name], now, strict=True) if a and not b)
+                before[name] = now
+        return moves
+    finally:
+        scene.close()
+
+
+#: What a person does (BELIEVABILITY.md), by column: (low, high) or a note.
+HUMAN = {
+    "cadence": "adult 1.2 m/s: 1.8-2.0 /s; 1.05 m child 1.0 m/s: 2.5-3",
+    "step": "adult 1.2 m/s: 0.65-0.75 m (~0.4 x height)",
+    "knee": "stance 5-20 deg",
+    "pelvis": "close to standing (>= 0.9), bob 2-5 cm",
+    "double": "~0.20 at a normal walk, less faster",
+    "lift": "a few cm at the toe, visibly at the heel",
+    "uturn": "upright: a few degrees (<= 30 here)",
+    "idle": "0 (step only when balance needs it)",
+}
+
+
+def table(sizes=SIZES, speeds=SPEEDS) -> list[dict[str, float]]:
+    """One row of walk figures per (size, speed) the lab runs."""
+    rows = []
+    for h in sizes:
+        for v in speeds:
+            row = measure_walk(h, v)
+            row["height"], row["asked"] = h, v
+            rows.append(row)
+    return rows
+
+
+def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str:
+    """The lab's printed report: walk table, U-turn pitch and idle re-steps beside a person's."""
+    lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
+    head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
+            f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'lift cm':>7} "
+            f"{'ahead cm':>8}")  # fmt: skip
+    lines += [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['height']:6.2f} {r['asked']:5.2f} {r['speed']:5.2f} {r['froude']:5.2f} {r['cadence']:7.2f} "
+            f"{r['step']:6.2f} {r['step'] / r['legs']:6.2f} {r['knee']:5.0f} {r['pelvis']:6.2f} "
+            f"{100 * r['bob']:6.1f} {r['double']:6.2f} {100 * r['lift']:7.1f} {100 * r['ahead']:8.1f}"
+        )
+    lines += [
+        "",
+        "A person: " + "; ".join(f"{k}: {v}" for k, v in HUMAN.items() if k not in ("uturn", "idle")),
+    ]
+    lines += [
+        "",
+        "U-turn at 1.2 m/s, largest torso pitch (deg): "
+        + ", ".join(f"{h:.2f} m: {p:.0f}" for h, p in uturns.items())
+        + f"   (a person: {HUMAN['uturn']})",
+    ]
+    lines += ["Foot moves in 10 s standing in the playground: "
+              + ", ".join(f"{name} ({IDLE[name]}): {n}" for name, n in idle.items())
+              + f"   (a person: {HUMAN['idle']})"]  # fmt: skip
+    return "\n".join(lines)
+
+
+def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, frames: int = 12,
+                  every: float = 0.1, size: tuple[int, int] = (320, 320),
+                  columns: int = 6) -> Path:  # fmt: skip
+    """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
+    from PIL import Image
+
+    from twig_ecs.graphics.camera import OrbitCamera
+    from twig_ecs.graphics.offscreen import OffscreenRenderer, check_output
+
+    path = check_output(output)
+    scene = _scene()
+    try:
+        person = scene.spawn("humanoid", name="walker", height=height, character=True)
+        scene.run(0.5)
+        person.walk((0.0, 0.0, speed))
+        scene.run(2.5)
+        rows = math.ceil(frames / columns)
+        sheet = Image.new("RGB", (columns * size[0], rows * size[1]), "white")
+        with OffscreenRenderer() as off:
+            for k in range(frames):
+                target = person.position.copy()
+                target[1] = 0.5 * height * 0.95
+                # side view: the camera on the character's left (+x), level with its hips
+                cam = OrbitCamera(target, yaw=90.0, pitch=5.0, distance=1.8 * height)
+                image = Image.fromarray(off.render(scene, cam, size))
+                sheet.paste(image, ((k % columns) * size[0], (k // columns) * size[1]))
+                scene.run(every)
+        sheet.save(path)
+        return path
+    finally:
+        scene.close()
+
+
+def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS) -> str:
+    """Measure everything and write the contact sheet; returns the printed report."""
+    rows = table(sizes, speeds)
+    uturns = {h: measure_uturn(h) for h in sizes}
+    text = format_report(rows, uturns, measure_idle())
+    if sheet:
+        text += f"\nContact sheet (side view, {sizes[-1]:.2f} m at 1.2 m/s, 0.1 s apart): "
+        text += str(contact_sheet(sheet, height=sizes[-1]))
+    return text
+
+
+def register_commands(sub) -> None:
+    """Add ``twig walklab`` to the CLI's subcommands."""
+    p = sub.add_parser("walklab", help="measure the walk per body size and speed beside a person's")
+    p.add_argument("--sheet", default="walklab.png", metavar="FILE.png",
+                   help="side-view contact sheet to write (default walklab.png; '' for none)")  # fmt: skip
+    p.set_defaults(func=lambda args: print(run_lab(args.sheet or None)) or 0)
+
+
+def main() -> None:
+    """Run the lab from ``python -m twig_ecs.walklab``."""
+    print(run_lab())
+
+
+if __name__ == "__main__":
+    main()
