@@ -74,6 +74,7 @@ class Session:
         self.authenticated = server.token is None
         self.inflight = asyncio.Semaphore(self.inflight_limit)
         self.closed = False
+        self.ending = False  # a wrong token (or a call before auth): the connection is closing
 
     # -- output (never waits) --------------------------------------------------------------
 
@@ -104,7 +105,7 @@ class Session:
         lines = rpc.LineReader(self.reader)
         try:
             await self.greet()
-            while not self.closed:
+            while not self.closed and not self.ending:
                 if self.writer.transport.get_write_buffer_size() > 1 << 20:
                     await self.writer.drain()  # it is not reading: stop reading it too
                 await self.inflight.acquire()
@@ -131,13 +132,16 @@ class Session:
         self, name: str, params: dict[str, Any] | list[Any], done: Callable[[Any, RPCError | None], None]
     ) -> None:
         """Check and run (or queue) one call; ``done(result, error)`` is called exactly once."""
+        if self.ending:  # refused once: nothing more from this connection runs, batch included
+            done(None, RPCError(rpc.UNAUTHORIZED, "refused: this connection is closing"))
+            return
+        if not self.authenticated and name != "auth":  # before auth, not even the method list
+            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
+            self.close_soon()
+            return
         method = METHODS.get(name)
         if method is None:
             done(None, RPCError(rpc.METHOD_NOT_FOUND, f"unknown method '{name}'" + suggest(name, METHODS)))
-            return
-        if not self.authenticated and name != "auth":
-            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
-            self.close_soon()
             return
         try:
             params = bind(method, params)
@@ -157,9 +161,14 @@ class Session:
             done(method.fn(self.server, self, **params), None)
 
     def close_soon(self) -> None:
-        """Close after what was written is sent."""
-        self.closed = True
-        self.writer.close()
+        """Run nothing more; close once the answers to the current line are written."""
+        self.ending = True
+        asyncio.get_running_loop().call_soon(self._close_now)
+
+    def _close_now(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.writer.close()
 
 
 class JsonSession(Session):
@@ -240,6 +249,8 @@ class Server:
     :attr:`port`) and starts the simulation loop; ``await server.stop()`` ends both
     and closes the scene (if ``own_scene``). ``window``: a play window to draw each frame.
     ``recorder``: a :class:`~twig_ecs.replay.Recorder` that logs every applied command.
+    ``rollback``: save the world before every step so that a step that raises is undone
+    (costs a snapshot per step; without it a failed step may leave the world half-advanced).
     """
 
     def __init__(
@@ -255,6 +266,7 @@ class Server:
         own_scene: bool = True,
         log: Callable[[str], None] | None = None,
         recorder=None,
+        rollback: bool = True,
     ) -> None:
         self.scene = scene
         self.host = host
@@ -265,6 +277,7 @@ class Server:
         self.autonomous = autonomous
         self.window = window
         self.own_scene = own_scene
+        self.rollback = rollback
         self.log = log or (lambda text: print(f"twig serve: {text}", file=sys.stderr, flush=True))
         self.sessions: set[Session] = set()
         self.goal_owners: dict[int, Session] = {}
@@ -397,7 +410,11 @@ class Server:
         if self.recorder is not None:
             self.recorder.command(frame, command.method.name, command.params, error and error.message)
         self._flush()  # what the command set off (a cancelled goal), before its answer
-        command.done(result if error is None else None, error)
+        try:
+            command.done(result if error is None else None, error)
+        except Exception:  # answering one client must never stop the simulation for all
+            self.log(f"answering {command.method.name} failed:\n{traceback.format_exc()}")
+            command.session.abort()
 
     # -- the simulation ------------------------------------------------------------------------
 
@@ -408,6 +425,18 @@ class Server:
     _next_tick = 0.0
 
     async def _run(self) -> None:
+        """The simulation task: it never ends on an error, it logs it, pauses and goes on."""
+        while True:
+            try:
+                await self._loop()
+            except asyncio.CancelledError:
+                raise
+            except Exception:  # a bug outside the step itself: the server must keep answering
+                self.log(f"the simulation loop failed; paused:\n{traceback.format_exc()}")
+                self.paused = True
+                await asyncio.sleep(0)
+
+    async def _loop(self) -> None:
         loop = asyncio.get_running_loop()
         wakeup = self._wakeup
         assert wakeup is not None
@@ -418,8 +447,9 @@ class Server:
             if now >= self._next_tick and (not self.paused or self.window is not None):
                 if not self.paused:
                     steps = 0
-                    while now >= self._next_tick and steps < MAX_CATCH_UP:
-                        self._step_frame()
+                    while now >= self._next_tick and steps < MAX_CATCH_UP and not self.paused:
+                        if not self._try_step():
+                            break
                         self._next_tick += self.scene.dt
                         steps += 1
                     if now >= self._next_tick:  # too far behind: drop the time we cannot catch up
@@ -443,18 +473,70 @@ class Server:
             if timer is not None:
                 timer.cancel()
 
+    def _try_step(self) -> bool:
+        """One real-time step; False (and paused) if it failed."""
+        try:
+            self._step_frame()
+        except RPCError:
+            return False
+        return True
+
     def _step_frame(self) -> None:
+        """One step, or none at all: a step that raises is undone (see :meth:`_roll_back`)."""
+        checkpoint = self._checkpoint()
         try:
             self.scene.step(1)
-        except Exception:
+        except Exception as exc:
             self.log(f"the simulation failed at frame {self.scene.frame}; paused:\n{traceback.format_exc()}")
+            rolled_back = self._roll_back(checkpoint)
             self.paused = True
             self._pending.clear()
+            cause = f"{type(exc).__name__}: {exc}"
+            message = f"step {self.scene.frame + 1} failed ({cause})" + (
+                "; the world is as before it, paused" if rolled_back else "; paused"
+            )
             for session in list(self.sessions):
-                session.send_event("simulation.error", {"frame": self.scene.frame, "message": "step failed"})
-            raise RPCError(rpc.INTERNAL_ERROR, "the simulation failed; it is paused") from None
+                if session.authenticated:
+                    session.send_event(
+                        "simulation.error",
+                        {"frame": self.scene.frame, "message": message, "rolled_back": rolled_back},
+                    )
+            raise RPCError(rpc.INTERNAL_ERROR, f"the simulation failed: {message}") from None
         self.steps_run += 1
         self._flush()
+
+    def _checkpoint(self) -> bytes | None:
+        """The world before a step, to go back to if the step fails (None: cannot be saved)."""
+        if not self.rollback:
+            return None
+        try:
+            return self.scene.snapshot()
+        except Exception as exc:  # a world that cannot be saved still runs, without the safety net
+            self.log(f"no rollback point (the world cannot be saved: {exc}); steps run without one")
+            self.rollback = False
+            return None
+
+    def _roll_back(self, checkpoint: bytes | None) -> bool:
+        """Put the world back as it was before the failed step; True if that was possible."""
+        if checkpoint is None:
+            return False
+        from twig_ecs.scene import Scene
+
+        try:
+            restored = Scene.restore(checkpoint)
+        except Exception:
+            self.log(f"rolling back failed:\n{traceback.format_exc()}")
+            return False
+        old = self.scene
+        self.scene = restored
+        self._pending.clear()
+        for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
+            restored.on(kind, self._pending.append)
+        if self.window is not None:
+            self.window.viewer.scene = restored
+        old.close()
+        restored.activate()
+        return True
 
     async def step_frames(self, n: int) -> None:
         """Advance ``n`` frames (the ``step`` method), letting the sockets in now and then.

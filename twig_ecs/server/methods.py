@@ -86,6 +86,14 @@ def _show(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _check_text(value: str, where: str) -> None:
+    """Refuse text that cannot be written back as UTF-8 (a lone surrogate from a JSON escape)."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _bad(f"{where} is not valid Unicode text (it holds a lone surrogate such as \\ud800)") from None
+
+
 def _vector(p: Param, value: Any) -> tuple[float, ...]:
     if not isinstance(value, list | tuple) or len(value) not in (2, 3):
         raise _bad(f"'{p.name}' must be a list of 3 numbers [x, y, z] (or 2, [x, z]), got {_show(value)}")
@@ -108,6 +116,7 @@ def check_value(p: Param, value: Any) -> Any:
             raise _bad(f"{where} must be a non-empty string, got {_show(value)}")
         if len(value) > 200:
             raise _bad(f"{where} is too long ({len(value)} characters; at most 200)")
+        _check_text(value, where)
         return value
     if kind == "number":
         return _number(p, value, where)
@@ -146,6 +155,7 @@ def check_value(p: Param, value: Any) -> Any:
     if kind == "object":
         if not isinstance(value, dict | bool):
             raise _bad(f"{where} must be an object or a boolean, got {_show(value)}")
+        _check_plain(value, p.name)
         return value
     if kind == "color":
         if not isinstance(value, list) or len(value) != 3:
@@ -292,6 +302,11 @@ def _check_plain(value: Any, where: str) -> None:
             _check_plain(v, f"{where}[{i}]")
     elif isinstance(value, float | int) and not isinstance(value, bool):
         _number(Param("", "number"), value, f"'{where}'")
+    elif isinstance(value, str):
+        _check_text(value, f"'{where}'")
+    if isinstance(value, dict):
+        for k in value:
+            _check_text(str(k), f"'{where}' key")
 
 
 def goal_do(server: Server, session: Session, character: str, behavior: str, params: Any):

@@ -144,7 +144,9 @@ class TwigSession(Session):
     def _answer(self, result: Any, error: RPCError | None) -> None:
         if error is not None:
             message = " ".join(error.message.split())
-            self.write(f"error {error.code} {message}\n".encode())
+            # backslashreplace: a lone surrogate a client sent (or a name holding one) comes back
+            # escaped instead of breaking the encoder
+            self.write(f"error {error.code} {message}\n".encode(errors="backslashreplace"))
         elif result is None:
             self.write(b"ok\n")
         else:
