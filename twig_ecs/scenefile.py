@@ -22,6 +22,7 @@ from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.parameters import read_parameters, resolve, substitute
 from twig_ecs.store import ROLES
 from twig_ecs.system import System
+from twig_ecs.trust import check_plugin
 from twig_ecs.templates import (
     BodyTemplate,
     Damping,
@@ -357,6 +358,7 @@ def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
         check_keys(item, here, SYSTEM_KEYS)
         reference = read(item, "use", here, text)
         try:
+            check_plugin(reference, path.parent)  # untrusted scenes: plug-ins from their own folder only
             cls = load_class(reference, str(path.parent))
         except TwigError as exc:
             fail(item, "use", join(here, "use"), str(exc))
