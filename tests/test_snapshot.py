@@ -11,9 +11,9 @@ import pytest
 
 from twig_ecs import Scene
 from twig_ecs.cli import main
-from twig_ecs.trust import trusting
 from twig_ecs.snapshot import FORMAT_VERSION, MAGIC, SnapshotError, read_meta
 from twig_ecs.system import System
+from twig_ecs.trust import trusting
 
 
 class Holding(System):
@@ -199,7 +199,8 @@ def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_proce
     assert meta["plugins"][0]["file"].endswith("dance.py")
     assert main(["run", str(scene_file), "--seconds", "3", "--report", "json"]) == 0
     straight = json.loads(capsys.readouterr().out)
-    command = [sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1", "--report", "json"]
+    command = [sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
+               "--report", "json"]  # fmt: skip
     refused = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert refused.returncode == 2 and "--trust" in refused.stderr  # a snapshot is data: no plug-in files
     done = subprocess.run([*command, "--trust"], capture_output=True, text=True, timeout=120)

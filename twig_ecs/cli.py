@@ -32,7 +32,7 @@ def _add_scene_args(
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
                    help="set a parameter the scene declares (repeatable)")  # fmt: skip
     p.add_argument("--trust", action="store_true",
-                   help="run plug-in code any scene, snapshot or replay names (docs/reliability.md, Trust)")  # fmt: skip
+                   help="let scenes, snapshots, replays run plug-in code (docs/reliability.md)")  # fmt: skip
     p.set_defaults(scene_parameters=True)
 
 

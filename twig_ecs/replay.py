@@ -140,8 +140,8 @@ def read_replay(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]],
     end = items[-1] if len(items) > 1 and isinstance(items[-1], dict) and "end" in items[-1] else None
     commands = items[1 : len(items) - (1 if end else 0)]
     for k, item in enumerate(commands):
-        if not (isinstance(item, dict) and _is_frame(item.get("frame")) and isinstance(item.get("method"), str)
-                and isinstance(item.get("params", {}) or {}, dict)):  # fmt: skip
+        ok = isinstance(item, dict) and _is_frame(item.get("frame")) and isinstance(item.get("method"), str)
+        if not ok or not isinstance(item.get("params") or {}, dict):
             raise ReplayError(
                 f"'{path}': line {k + 2} is not a command record "
                 f"(needs frame: 0..{MAX_FRAMES}, method: a name, params: an object)"
@@ -190,7 +190,7 @@ def _inside(root: Path, rel: str) -> Path:
     where = Path(rel)
     target = (root / where).resolve()
     if where.is_absolute() or ".." in where.parts or not target.is_relative_to(root.resolve()):
-        raise ReplayError(f"the replay embeds a file named '{rel}', which would be written outside its folder")
+        raise ReplayError(f"the replay embeds a file named '{rel}': it would be written outside its folder")
     if where.suffix not in (".yaml", ".yml"):
         raise ReplayError(f"the replay embeds '{rel}'; a replay carries only .yaml files")
     return target

@@ -22,13 +22,13 @@ from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.parameters import read_parameters, resolve, substitute
 from twig_ecs.store import ROLES
 from twig_ecs.system import System
-from twig_ecs.trust import check_plugin
 from twig_ecs.templates import (
     BodyTemplate,
     Damping,
     read_damping,
     read_pain,
 )
+from twig_ecs.trust import check_plugin
 from twig_ecs.validate import (
     LIMIT,
     between,

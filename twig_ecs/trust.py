@@ -92,7 +92,7 @@ def check_plugin(reference: str, base_dir: str | Path | None) -> None:
                 f"'{reference}': a scene inside a replay may not run plug-in files; {HOW_TO_TRUST}"
             )
         if base_dir is None:
-            raise UntrustedCode(f"'{reference}': a plug-in file needs a scene folder to be in; {HOW_TO_TRUST}")
+            raise UntrustedCode(f"'{reference}': a plug-in file needs a scene folder; {HOW_TO_TRUST}")
         folder = Path(base_dir).resolve()
         path = Path(module)
         resolved = (folder / path).resolve() if not path.is_absolute() else path.resolve()
