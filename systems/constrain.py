@@ -201,6 +201,11 @@ def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref,
         dx = dr * rx + ds * sx
         dy = dr * ry + ds * sy
         dz = dr * rz + ds * sz
+        # past one edge by more than a slight fault (the body turned about a folded, swinging
+        # leg): also a repair, not a stop - as a stop it turned a 30 cm fault into 18 m/s of
+        # knee speed in one pass, and the links and the limit then pumped it up each step
+        # (the 300-crowd blow-up at frame 2675)
+        teleport = teleport or (not both and max(-in0, -in1) > REVERSED * an)
         if teleport:
             # a repair: the mid node is turned into place and keeps its velocity
             if not flags[m] & (NODE_LOCKED | NODE_MOVING):

@@ -66,7 +66,7 @@ def test_a_name_that_is_not_unicode_text_is_refused_by_json_rpc():
 
 def test_a_body_reusing_a_characters_name_does_not_stop_the_server():
     """`remove parent`, `spawn ball named parent`: the watcher must not break on the ball."""
-    with running_server(paused=True) as srv, Client(port=srv.port) as twig:
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
         twig.call("remove", name="parent")
         twig.call("spawn", template="ball", name="parent", position=[0, 1, 0])
         twig.call("step", n=900)  # the small child glances back at its caregiver near frame 520
@@ -77,7 +77,7 @@ def test_a_body_reusing_a_characters_name_does_not_stop_the_server():
 
 
 def test_a_failing_step_rolls_the_world_back_pauses_and_reports_simulation_error():
-    with running_server(paused=True) as srv, Client(port=srv.port) as twig:
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
         twig.call("step", n=10)
         before = twig.call("status")
         srv.loop.call_soon_threadsafe(_break_next_step, srv.server)
@@ -90,7 +90,7 @@ def test_a_failing_step_rolls_the_world_back_pauses_and_reports_simulation_error
         assert after["frame"] == note["frame"]
         assert twig.call("ping") == "pong"
         # the failed step left nothing half-done: the state hash is that of a clean run
-        with running_server(paused=True) as clean_srv, Client(port=clean_srv.port) as clean:
+        with running_server(paused=True) as clean_srv, Client(port=clean_srv.port, timeout=60) as clean:
             clean.call("step", n=after["frame"])
             assert clean.call("status")["state_hash"] == after["state_hash"]
         assert before["frame"] <= after["frame"]
@@ -113,7 +113,7 @@ def _break_next_step(server, every: bool = False) -> None:
 
 
 def test_resume_after_a_failed_step_does_not_stop_the_server():
-    with running_server(paused=True) as srv, Client(port=srv.port) as twig:
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
         srv.loop.call_soon_threadsafe(_break_next_step, srv.server, True)
         try:
             _fail_twice(twig)
@@ -143,6 +143,107 @@ def test_a_wrong_token_in_a_batch_ends_the_connections_work():
         assert answers[0]["error"]["message"] == "wrong token"
         assert all(a.get("error") for a in answers), answers
         assert raw.closed_by_server()
-        with Client(port=srv.port, token="s3cret") as twig:
+        with Client(port=srv.port, token="s3cret", timeout=60) as twig:
             names = [e["name"] for e in twig.call("list_entities")]
             assert "smuggled" not in names
+
+
+# -- item 5: caps on size and count -----------------------------------------------------------------
+
+
+def test_a_huge_body_is_refused_and_the_world_goes_on(monkeypatch):
+    from twig_ecs.server import methods
+
+    monkeypatch.setattr(methods, "MAX_SERVED_BODIES", 8)
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
+        with pytest.raises(RemoteError, match="MAX_EXTENT"):
+            twig.call("spawn", template="merry_go_round", name="tower", height=100.0, position=[30, 0, 30])
+        names = [e["name"] for e in twig.call("list_entities")]
+        assert "tower" not in names
+        with pytest.raises(RemoteError, match="spawns up to 8"):
+            for k in range(10):
+                twig.call("spawn", template="ball", name=f"b{k}", position=[k, 1, 5])
+        assert len(twig.call("list_entities")) == 8
+        assert twig.call("step", n=2)["frame"] == 2
+
+
+# -- item 6: fair queueing and capped answers -------------------------------------------------------
+
+
+def test_a_client_flooding_batches_does_not_hold_up_another_client():
+    with running_server(paused=True) as srv, RawLines(srv.port, timeout=120) as flood:
+        batch = json.dumps([request("step", k, n=1) for k in range(64)]).encode() + b"\n"
+        flood.send(batch * 10)  # 640 steps queued at once
+        first = json.loads(flood.line())
+        assert isinstance(first, list) and len(first) == 64
+        with Client(port=srv.port, timeout=120) as other:
+            frame = other.call("status")["frame"]
+        # served in turn: the status waited for a few of the flood's steps, not all 576 left
+        assert frame < 400, frame
+        answers = 1 + sum(1 for _ in range(9) if len(json.loads(flood.line())) == 64)
+        assert answers == 10
+
+
+def test_an_answer_over_the_cap_is_an_error_and_a_big_answer_does_not_disconnect(monkeypatch):
+    from twig_ecs.server import core
+
+    with running_server(paused=True) as srv, RawLines(srv.port, timeout=60) as raw:
+        monkeypatch.setattr(core, "MAX_UNSENT", 1000)  # smaller than one get_state: still sent whole
+        state = ask(raw, request("get_state", 1))
+        assert len(state["result"]["entities"]) == 6
+        monkeypatch.setattr(core, "MAX_ANSWER", 300)
+        answer = ask(raw, request("get_state", 2))
+        assert answer["id"] == 2 and "ask for less" in answer["error"]["message"]
+        assert ask(raw, request("get_state", 3, name="ball"))["result"]["name"] == "ball"
+
+
+def test_a_batch_over_the_limit_is_refused_whole():
+    with running_server(paused=True) as srv, RawLines(srv.port) as raw:
+        answer = ask(raw, [request("ping", k) for k in range(300)])
+        assert answer["error"]["code"] == -32600 and "at most 256" in answer["error"]["message"]
+        assert ask(raw, request("ping", 1))["result"] == "pong"
+
+
+# -- item 11: the small ones --------------------------------------------------------------------------
+
+
+def test_an_idle_unauthenticated_connection_is_closed():
+    with running_server(token="s3cret", paused=True) as srv:
+        srv.loop.call_soon_threadsafe(setattr, srv.server, "auth_timeout", 0.5)
+        with Client(port=srv.port, token="s3cret", timeout=60) as twig:  # authenticated: no time limit
+            with RawLines(srv.port) as idle:
+                assert idle.closed_by_server(timeout=20)
+            assert twig.call("ping") == "pong"
+
+
+def test_before_auth_an_unknown_method_lists_nothing():
+    with running_server(token="s3cret", paused=True) as srv, RawLines(srv.port) as raw:
+        answer = ask(raw, request("get_stat", 1))
+        assert answer["error"]["code"] == -32002 and "get_state" not in answer["error"]["message"]
+
+
+def test_deep_twig_lines_and_long_ids_get_clear_answers():
+    with running_server(twig=True, paused=True) as srv, RawLines(srv.twig_port) as nc:
+        raw = RawLines(srv.port)
+        nc.line(), nc.line()
+        nc.send(b"parent: walk " + b"[" * 1000 + b"]" * 1000 + b"\n")
+        assert nc.line().startswith(b"error -32600 brackets nested more than")
+        nc.send(b"server: ping\n")
+        assert nc.line() == b'ok "pong"'
+        rid = 12345678901234567890123456789
+        raw.send(b'{"jsonrpc":"2.0","id":%d,"method":"ping"}\n' % rid)
+        assert json.loads(raw.line())["id"] == rid
+        deep = {"jsonrpc": "2.0", "id": 2, "method": "do", "params": {"character": "parent", "behavior": "x"}}
+        raw.send(json.dumps(deep)[:-2].encode() + b', "params": ' + b"[" * 900 + b"]" * 900 + b"}}\n")
+        answer = json.loads(raw.line())
+        assert answer["error"]["code"] in (-32602, -32600)
+        assert ask(raw, request("ping", 3))["result"] == "pong"
+        raw.close()
+
+
+def test_goal_failed_for_a_removed_character_names_it():
+    with running_server(paused=True, autonomous=False) as srv, Client(port=srv.port, timeout=60) as twig:
+        goal = twig.call("hug", character="parent", target="small_child", duration=5.0)["goal"]
+        twig.call("remove", name="parent")
+        note = twig.wait_goal(goal, timeout=30)
+        assert note.kind == "goal.failed" and note["character"] == "parent"

@@ -42,10 +42,20 @@ DEFAULT_TWIG_PORT = 10001
 MAX_INFLIGHT = 64
 #: Unsent bytes to one client beyond which it is disconnected as too slow.
 MAX_UNSENT = 8 << 20
+#: Longest answer line (bytes): a bigger one is replaced by an error saying to ask for less.
+MAX_ANSWER = 4 << 20
+#: Frames between the checkpoints a failed step is rolled back from (and after every command).
+CHECKPOINT_EVERY = 120
+#: Seconds a client of a server with a token has to authenticate before it is disconnected.
+AUTH_TIMEOUT = 30.0
+#: Most requests in one JSON-RPC batch.
+MAX_BATCH = 256
 #: Most simulation steps run to catch up after a stall (then the clock drops the rest).
 MAX_CATCH_UP = 5
 #: Longest the loop spends applying queued commands before stepping again (s).
 COMMAND_BUDGET = 0.008
+#: Queued methods that leave the world as it was (no new rollback checkpoint after them).
+READ_ONLY = frozenset({"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume"})
 _session_ids = itertools.count(1)
 
 
@@ -81,9 +91,10 @@ class Session:
     def write(self, data: bytes) -> None:
         if self.closed:
             return
+        behind = self.writer.transport.get_write_buffer_size()  # before this answer: it may be big
         self.writer.write(data)
         unsent = self.writer.transport.get_write_buffer_size()
-        if unsent > MAX_UNSENT:
+        if behind > MAX_UNSENT:
             self.server.log(f"client {self.peer} is {unsent >> 20} MiB behind: disconnected")
             self.abort()
 
@@ -109,7 +120,14 @@ class Session:
                 if self.writer.transport.get_write_buffer_size() > 1 << 20:
                     await self.writer.drain()  # it is not reading: stop reading it too
                 await self.inflight.acquire()
-                line = await lines.next()
+                if self.authenticated:
+                    line = await lines.next()
+                else:  # an idle connection that never authenticates does not hold a socket for ever
+                    try:
+                        line = await asyncio.wait_for(lines.next(), self.server.auth_timeout)
+                    except TimeoutError:
+                        self.server.log(f"client {self.peer} sent no token in {self.server.auth_timeout:g} s")
+                        break
                 if line is None:
                     break
                 if line is rpc.TOO_LONG:
@@ -148,6 +166,9 @@ class Session:
         except RPCError as exc:
             done(None, exc)
             return
+        except RecursionError:  # JSON nested just under the parser's limit
+            done(None, RPCError(rpc.INVALID_PARAMS, f"{name}: parameters nested too deeply"))
+            return
         if name == "auth":
             token = self.server.token
             if token is not None and not hmac.compare_digest(params["token"].encode(), token.encode()):
@@ -171,6 +192,16 @@ class Session:
             self.writer.close()
 
 
+def _too_big(obj: Any, size: int) -> Any:
+    """An error answer (or batch of them) in place of an answer of ``size`` bytes."""
+    message = (f"the answer is {size / (1 << 20):.1f} MiB, over the {MAX_ANSWER >> 20} MiB limit: "
+               "ask for less (get_state NAME for one entity, list_entities for names)")  # fmt: skip
+    error = RPCError(rpc.INTERNAL_ERROR, message)
+    if isinstance(obj, list):
+        return [rpc.error_response(a.get("id"), error) for a in obj if isinstance(a, dict)]
+    return rpc.error_response(obj.get("id") if isinstance(obj, dict) else None, error)
+
+
 class JsonSession(Session):
     """A JSON-RPC 2.0 client: one request (or batch) per line, answers by id."""
 
@@ -178,7 +209,10 @@ class JsonSession(Session):
         self.write(rpc.dumps(rpc.notification(kind, params)))
 
     def _send(self, obj: Any) -> None:
-        self.write(rpc.dumps(obj))
+        data = rpc.dumps(obj)
+        if len(data) > MAX_ANSWER:  # one answer must not swamp the client (nor the server's memory)
+            data = rpc.dumps(_too_big(obj, len(data)))
+        self.write(data)
 
     def handle_too_long(self) -> None:
         error = RPCError(rpc.INVALID_REQUEST, f"request line longer than {rpc.MAX_LINE} bytes: refused")
@@ -225,6 +259,10 @@ class JsonSession(Session):
     def _batch(self, items: list[Any]) -> None:
         if not items:
             self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, "empty batch")))
+            return
+        if len(items) > MAX_BATCH:
+            message = f"a batch of {len(items)} requests: at most {MAX_BATCH} (send several lines)"
+            self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, message)))
             return
         answers: list[dict[str, Any] | None] = [None] * len(items)
         left = [len(items)]
@@ -278,11 +316,14 @@ class Server:
         self.window = window
         self.own_scene = own_scene
         self.rollback = rollback
+        self.auth_timeout = AUTH_TIMEOUT
         self.log = log or (lambda text: print(f"twig serve: {text}", file=sys.stderr, flush=True))
         self.sessions: set[Session] = set()
         self.goal_owners: dict[int, Session] = {}
         self.steps_run = 0
-        self._queue: collections.deque[Command] = collections.deque()
+        # one queue per client, served in turn (one command each): a client that sends
+        # thousands of requests delays another's by at most one command per busy client
+        self._queues: dict[Session, collections.deque[Command]] = collections.OrderedDict()
         self._pending: list[Any] = []  # scene events since the last flush
         self._grabs: dict[int, tuple[str, str | None, str]] = {}
         self._listeners: list[asyncio.base_events.Server] = []
@@ -303,6 +344,7 @@ class Server:
         self.scene = scene
         self.goal_owners.clear()
         self._pending.clear()
+        self._checkpoint = None  # a new scene (the window reloaded it): checkpoints of the old are void
         if not self.autonomous:
             for name in scene.entity_names:
                 handle = scene.entity(name)
@@ -359,8 +401,8 @@ class Server:
         for listener in self._listeners:
             await listener.wait_closed()
         self._listeners.clear()
-        while self._queue:
-            self._queue.popleft().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
+        while self._queues:
+            self._next_command().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
         if self.recorder is not None:
             self.recorder.close(self.scene.frame, self.scene.state_hash())
         if self.window is not None and not self.window.closed:
@@ -386,9 +428,22 @@ class Server:
 
     def submit(self, command: Command) -> None:
         """Queue a command for the simulation loop."""
-        self._queue.append(command)
+        queue = self._queues.get(command.session)
+        if queue is None:
+            queue = self._queues[command.session] = collections.deque()
+        queue.append(command)
         if self._wakeup is not None:
             self._wakeup.set()
+
+    def _next_command(self) -> Command:
+        """The next command, taking clients in turn (round robin over their own queues)."""
+        session, queue = next(iter(self._queues.items()))
+        command = queue.popleft()
+        if queue:
+            self._queues.move_to_end(session)
+        else:
+            del self._queues[session]
+        return command
 
     async def _apply(self, command: Command) -> None:
         frame = self.scene.frame
@@ -407,6 +462,8 @@ class Server:
             error = RPCError(rpc.INTERNAL_ERROR, f"internal error in {command.method.name}: {exc!r}")
         else:
             error = None
+        if command.method.name not in READ_ONLY:
+            self._changed = True  # the next step saves a new rollback checkpoint first
         if self.recorder is not None:
             self.recorder.command(frame, command.method.name, command.params, error and error.message)
         self._flush()  # what the command set off (a cancelled goal), before its answer
@@ -459,11 +516,11 @@ class Server:
                 if self.window is not None:
                     self._draw()
             budget = time.perf_counter() + COMMAND_BUDGET
-            while self._queue:
-                await self._apply(self._queue.popleft())
+            while self._queues:
+                await self._apply(self._next_command())
                 if time.perf_counter() > budget:
                     break
-            if self._queue:
+            if self._queues:
                 await asyncio.sleep(0)  # let the sockets in before the next batch
                 continue
             wakeup.clear()
@@ -483,16 +540,17 @@ class Server:
 
     def _step_frame(self) -> None:
         """One step, or none at all: a step that raises is undone (see :meth:`_roll_back`)."""
-        checkpoint = self._checkpoint()
+        self._keep_checkpoint()
         try:
             self.scene.step(1)
         except Exception as exc:
             self.log(f"the simulation failed at frame {self.scene.frame}; paused:\n{traceback.format_exc()}")
-            rolled_back = self._roll_back(checkpoint)
+            failed = self.scene.frame  # the frame the step started from
+            rolled_back = self._roll_back(failed)
             self.paused = True
             self._pending.clear()
             cause = f"{type(exc).__name__}: {exc}"
-            message = f"step {self.scene.frame + 1} failed ({cause})" + (
+            message = f"step {failed + 1} failed ({cause})" + (
                 "; the world is as before it, paused" if rolled_back else "; paused"
             )
             for session in list(self.sessions):
@@ -505,27 +563,46 @@ class Server:
         self.steps_run += 1
         self._flush()
 
-    def _checkpoint(self) -> bytes | None:
-        """The world before a step, to go back to if the step fails (None: cannot be saved)."""
+    # -- rollback: a checkpoint now and then, and the steps since replayed (they are deterministic) --
+
+    _checkpoint: bytes | None = None
+    _checkpoint_frame = -1
+    _changed = True  # a command changed the world since the checkpoint
+
+    def _keep_checkpoint(self) -> None:
+        """Save the world every CHECKPOINT_EVERY frames and before the first step after a command."""
         if not self.rollback:
-            return None
+            return
+        scene = self.scene
+        due = self._checkpoint is None or scene.frame - self._checkpoint_frame >= CHECKPOINT_EVERY
+        if not (due or self._changed):
+            return
         try:
-            return self.scene.snapshot()
+            self._checkpoint = scene.snapshot()
         except Exception as exc:  # a world that cannot be saved still runs, without the safety net
             self.log(f"no rollback point (the world cannot be saved: {exc}); steps run without one")
             self.rollback = False
-            return None
+            self._checkpoint = None
+            return
+        self._checkpoint_frame = scene.frame
+        self._changed = False
 
-    def _roll_back(self, checkpoint: bytes | None) -> bool:
-        """Put the world back as it was before the failed step; True if that was possible."""
-        if checkpoint is None:
+    def _roll_back(self, frame: int) -> bool:
+        """Put the world back as it was at ``frame`` (before the failed step); True if possible.
+
+        The checkpoint is restored and stepped on to ``frame``: nothing but steps happened
+        since it was taken, and steps are deterministic, so this is the world as it was.
+        """
+        checkpoint, since = self._checkpoint, self._checkpoint_frame
+        if checkpoint is None or not since <= frame:
             return False
         from twig_ecs.scene import Scene
         from twig_ecs.trust import trusting
 
         try:
-            with trusting():  # our own snapshot, taken a moment ago: its plug-ins are already loaded
+            with trusting():  # our own snapshot: its plug-ins are already loaded
                 restored = Scene.restore(checkpoint)
+            restored.step(frame - since)  # no server listening yet: these events were sent before
         except Exception:
             self.log(f"rolling back failed:\n{traceback.format_exc()}")
             return False
@@ -574,6 +651,7 @@ class Server:
             for goal in handle.goals:
                 if entity == removed or name in (goal.params.get(k) for k in ("target", "to", "on")):
                     scene.end_goal(handle, goal, False, f"'{name}' was removed")
+        self._flush()  # while the name is still known: goal.failed names the character, not its id
         scene.remove(name)
         self._flush()
 
