@@ -21,6 +21,10 @@ CONTROLS = ("walk", "stop", "look_at", "reach", "grab", "release", "cancel_goals
 WORDS = ("parent", "small_child", "big_child", "ball", "ragdoll", "merry_go_round", "nobody", "x", "",
          "true", "null", "1e308", "-0", "[1 2]", "(0,0,0)", '"\\ud800"', "[[[1]]]", "key=", "=1")  # fmt: skip
 
+#: Lines that are not requests, or not good ones (all answered except the notification).
+JUNK = (b"{", b"[]", b'{"jsonrpc":"2.0","method":"walk","params":{"character":1}}',
+        b'[{"jsonrpc":"2.0","id":1,"method":"ping"}, 5, {"id": null}]', b"\xff\xfe")  # fmt: skip
+
 
 @dataclass
 class MixResult:
@@ -142,8 +146,7 @@ class _Mixer:
         elif roll < 0.9:
             self.call("step", n=rng.randint(1, 30))
         else:
-            junk = rng.choice([b"{", b"[]", b'{"jsonrpc":"2.0","method":"walk","params":{"character":1}}',
-                               b'[{"jsonrpc":"2.0","id":1,"method":"ping"}, 5, {"id": null}]', b"\xff\xfe"])  # fmt: skip
+            junk = rng.choice(JUNK)
             self.json.send(junk + b"\n")
             if b'"method":"walk"' not in junk:  # a notification (no id) gets no answer, even a bad one
                 self._answer(None)
