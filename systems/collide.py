@@ -30,7 +30,7 @@ FINAL_PASSES = 4
 #: A contact is resolved only where the contact points can move: their mobility (inverse mass
 #: seen through the lever s, 1 - s) must be at least this share of the nodes' own - a lever of
 #: 0.1 - else the free end would be swung depth / lever per pass.
-MIN_LEVER = 0.01
+MIN_LEVER = 0.0025
 #: Broad-phase grid cell edge (m), for the boxes of whole bodies: about a body's width
 #: and a half, so a standing body sits in a few cells and a lying one in a row of them.
 CELL_SIZE = 1.0

@@ -247,3 +247,15 @@ def test_goal_failed_for_a_removed_character_names_it():
         twig.call("remove", name="parent")
         note = twig.wait_goal(goal, timeout=30)
         assert note.kind == "goal.failed" and note["character"] == "parent"
+
+
+def test_an_unauthenticated_client_is_not_told_of_simulation_errors():
+    with running_server(token="s3cret", paused=True) as srv, RawLines(srv.port) as stranger:
+        with Client(port=srv.port, token="s3cret", timeout=60) as twig:
+            srv.loop.call_soon_threadsafe(_break_next_step, srv.server)
+            with pytest.raises(RemoteError, match="boom"):
+                twig.call("step", n=1)
+            assert twig.wait_for(lambda n: n.kind == "simulation.error", timeout=30) is not None
+        # what the stranger gets first is the answer to its auth, not the notification
+        stranger.send(json.dumps(request("auth", 7, token="s3cret")).encode() + b"\n")
+        assert json.loads(stranger.line()) == {"jsonrpc": "2.0", "id": 7, "result": {"authenticated": True}}

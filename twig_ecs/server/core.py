@@ -55,7 +55,9 @@ MAX_CATCH_UP = 5
 #: Longest the loop spends applying queued commands before stepping again (s).
 COMMAND_BUDGET = 0.008
 #: Queued methods that leave the world as it was (no new rollback checkpoint after them).
-READ_ONLY = frozenset({"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume"})
+READ_ONLY = frozenset(
+    {"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume", "step"}
+)  # step: only steps, which the rollback replays
 _session_ids = itertools.count(1)
 
 
