@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import esper
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.character import CharacterHandle
 from twig_ecs.components import Attachment, Character
 from twig_ecs.steering import ground_distance
 
@@ -55,10 +56,10 @@ class AttachmentBehavior(Behavior):
         scene = self.scene
         for entity, (_, attachment) in esper.get_components(Character, Attachment):
             me = scene.character_handle(entity)
-            try:
-                home = scene.entity(attachment.caregiver).position
-            except KeyError:
+            caregiver = self._caregiver(attachment)
+            if caregiver is None:
                 continue
+            home = caregiver.position
             distance = ground_distance(me.position, home)
             if distance > attachment.safe_distance:
                 attachment.anxiety += dt * (attachment.per_metre * (distance - attachment.safe_distance)
@@ -68,9 +69,20 @@ class AttachmentBehavior(Behavior):
             attachment.anxiety = min(1.0, max(0.0, attachment.anxiety))
         super().process(dt)
 
+    def _caregiver(self, attachment: Attachment) -> CharacterHandle | None:
+        """The caregiver's handle; None while there is no character of that name (removed, or
+        its name reused by a ball: a child cannot glance at a ball's head nor hug it)."""
+        try:
+            handle = self.scene.entity(attachment.caregiver)
+        except KeyError:
+            return None
+        return handle if isinstance(handle, CharacterHandle) else None
+
     def activation(self, character, mind: Mind, goal) -> float:
         """Run home when anxious enough, glance back when somewhat anxious."""
         attachment = self.settings(character)
+        if self._caregiver(attachment) is None:
+            return 0.0
         if any(g.behavior == "hug" for g in mind.goals):
             return 0.0  # already on its way home
         if attachment.anxiety >= attachment.return_at:

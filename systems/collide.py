@@ -27,6 +27,10 @@ from twig_ecs.systems.constrain import constraint_args, nudge, project_limits, p
 BROAD_MARGIN = 0.05
 #: Closing passes of only joint limits and links after the contact rounds.
 FINAL_PASSES = 4
+#: A contact is resolved only where the contact points can move: their mobility (inverse mass
+#: seen through the lever s, 1 - s) must be at least this share of the nodes' own - a lever of
+#: 0.1 - else the free end would be swung depth / lever per pass.
+MIN_LEVER = 0.0025
 #: Broad-phase grid cell edge (m), for the boxes of whole bodies: about a body's width
 #: and a half, so a standing body sits in a few cells and a lying one in a row of them.
 CELL_SIZE = 1.0
@@ -302,7 +306,11 @@ def resolve_contacts(
         wi = sa * sa * wa + s * s * wb
         wj = tc * tc * wc + t * t * wd
         w = wi + wj
-        if w == 0.0:
+        if w <= MIN_LEVER * (wa + wb + wc + wd):
+            # both contact points sit (almost) on pinned nodes - two planted feet crossed: only
+            # a free end far off could move them, by depth / lever, pass after pass, and the
+            # links would fling it back - energy from nowhere (the 300-crowd blow-up, frame
+            # 1159). Leave that overlap until a foot lifts.
             continue
         if record:
             # closing speed of the two contact points along n

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from twig_ecs.behavior import Behavior, Mind, register
+from twig_ecs.character import CharacterHandle
 from twig_ecs.components import Watchful
 from twig_ecs.steering import ground_distance
 
@@ -16,15 +17,22 @@ class Watch(Behavior):
     name = "watch"
     component = Watchful
 
+    def _charges(self, character) -> list:
+        """Handles of the charges that exist and are characters (a name reused by a ball is no charge)."""
+        scene = self.scene
+        names = scene.entity_names
+        handles = [scene.entity(c) for c in self.settings(character).charges if c in names]
+        return [h for h in handles if isinstance(h, CharacterHandle)]
+
     def activation(self, character, mind: Mind, goal) -> float:
         """A steady low urge whenever a charge exists."""
-        names = self.scene.entity_names
-        return WATCH if any(c in names for c in self.settings(character).charges) else 0.0
+        return WATCH if self._charges(character) else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Look at the furthest charge; stay put."""
-        names = self.scene.entity_names
-        charges = [c for c in self.settings(character).charges if c in names]
-        far = max(charges, key=lambda c: ground_distance(self.scene.entity(c).position, character.position))
+        charges = self._charges(character)
+        if not charges:
+            return
+        far = max(charges, key=lambda h: ground_distance(h.position, character.position))
         character.stop()
-        character.look_at(far, node="head")
+        character.look_at(far.name, node="head")

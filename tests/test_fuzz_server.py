@@ -270,7 +270,8 @@ def test_huge_and_deep_lines_are_refused_and_the_server_carries_on(served):
         raw, b'{"jsonrpc":"2.0","id":1,"method":"ping","params":{"x":"' + b"y" * (2 << 20) + b'"}}', 1
     )
     assert long["error"]["code"] == -32600 and "longer than" in long["error"]["message"]
-    assert exchange(raw, json.dumps([{"jsonrpc": "2.0", "method": "ping"}] * 20_000).encode(), 0) == []
+    (batch,) = exchange(raw, json.dumps([{"jsonrpc": "2.0", "method": "ping"}] * 20_000).encode(), 1)
+    assert batch["error"]["code"] == -32600 and "at most 256" in batch["error"]["message"]
     (pong,) = exchange(raw, b'{"jsonrpc":"2.0","id":"p","method":"ping"}', 1)
     assert pong["result"] == "pong"
 

@@ -13,6 +13,7 @@ from twig_ecs import Scene
 from twig_ecs.cli import main
 from twig_ecs.snapshot import FORMAT_VERSION, MAGIC, SnapshotError, read_meta
 from twig_ecs.system import System
+from twig_ecs.trust import trusting
 
 
 class Holding(System):
@@ -198,8 +199,11 @@ def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_proce
     assert meta["plugins"][0]["file"].endswith("dance.py")
     assert main(["run", str(scene_file), "--seconds", "3", "--report", "json"]) == 0
     straight = json.loads(capsys.readouterr().out)
-    done = subprocess.run([sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
-                           "--report", "json"], capture_output=True, text=True, timeout=120)  # fmt: skip
+    command = [sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
+               "--report", "json"]  # fmt: skip
+    refused = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert refused.returncode == 2 and "--trust" in refused.stderr  # a snapshot is data: no plug-in files
+    done = subprocess.run([*command, "--trust"], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["state_hash"] == straight["state_hash"]
 
@@ -213,7 +217,8 @@ def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scen
     scenes.append(scene)
     holding = scene.add_system(Holding(), after="collide")
     holding.kept = integrate_nodes
-    restored = Scene.restore(scene.snapshot())
+    with trusting():  # this test module is the plug-in the snapshot names
+        restored = Scene.restore(scene.snapshot())
     scenes.append(restored)
     (copy,) = [s for s in restored.schedule.systems() if isinstance(s, Holding)]
     assert copy.kept is integrate_nodes and copy.scene is restored

@@ -9,6 +9,7 @@ import sys
 from collections.abc import Sequence
 
 from twig_ecs.errors import TwigError
+from twig_ecs.trust import trusting
 
 
 def _add_scene_args(
@@ -28,6 +29,8 @@ def _add_scene_args(
                    help="the scene's 'count' parameter (e.g. characters in the crowd)")  # fmt: skip
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
                    help="set a parameter the scene declares (repeatable)")  # fmt: skip
+    p.add_argument("--trust", action="store_true",
+                   help="let scenes, snapshots, replays run plug-in code (docs/reliability.md)")  # fmt: skip
     p.set_defaults(scene_parameters=True)
 
 
@@ -231,6 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("files", nargs="+", metavar="FILE", help="scene or template files (or scene names)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+    p.add_argument("--trust", action="store_true", help="allow plug-ins from outside the scene's folder")
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("run", help="run a scene headless and report on it")
@@ -314,9 +318,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        if args.command in PREPARED_COMMANDS:
-            _prepare_kernels(args)
-        return int(args.func(args) or 0)
+        with trusting(getattr(args, "trust", False)):  # --trust: this command's files may run code
+            if args.command in PREPARED_COMMANDS:
+                _prepare_kernels(args)  # its workers load the scene under the same trust
+            return int(args.func(args) or 0)
     except TwigError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -259,6 +259,8 @@ class KernelBuild:
     def __init__(self, source: str | os.PathLike = "schoolyard", seed: int = 0,
                  content: list | tuple = (), parameters: dict | None = None,
                  workers: int | None = None) -> None:  # fmt: skip
+        from twig_ecs.trust import is_trusted
+
         self.source = str(source)
         self.started = time.perf_counter()
         self.compiled: dict[str, float] = {}  # kernel name -> seconds it took
@@ -268,7 +270,8 @@ class KernelBuild:
         self._lines: queue.Queue = queue.Queue()
         self._claims = tempfile.mkdtemp(prefix="twig-ecs-claims-")
         job = {"source": self.source, "seed": seed, "content": [str(c) for c in content],
-               "parameters": dict(parameters or {}), "claims": self._claims}  # fmt: skip
+               "parameters": dict(parameters or {}), "claims": self._claims,
+               "trust": is_trusted()}  # fmt: skip  # the workers trust the scene as this process does
         count = workers or min(2, os.cpu_count() or 1)
         env = dict(os.environ)
         # the workers import the very twig_ecs this process runs (a checkout or an install)
@@ -430,6 +433,7 @@ def _worker(job: dict) -> int:
     from numba.core import event
 
     from twig_ecs import Scene
+    from twig_ecs.trust import trusting
 
     global _checked
     _checked = True
@@ -471,7 +475,8 @@ def _worker(job: dict) -> int:
                 print(f"compiled {dispatcher.py_func.__name__} {seconds:.2f}", flush=True)
 
     event.register("numba:compile", Report())
-    scene = Scene.load(job["source"], seed=job["seed"], content=job["content"], **job["parameters"])
+    with trusting(job.get("trust", False)):
+        scene = Scene.load(job["source"], seed=job["seed"], content=job["content"], **job["parameters"])
     scene.step(0)  # install the systems
     if scene.state.colliders_dirty:
         scene.state.rebuild_colliders()

@@ -26,6 +26,10 @@ from twig_ecs.validate import check_keys, fail, join, mapping, read, suggest, te
 from twig_ecs.yamldoc import YDict, YList
 
 PARAMETER_KEYS = ("default", "min", "max", "about")
+#: Formula cost caps: its length (characters) and the size of any whole number met on the way
+#: (a float overflows by itself past 1e308, about 1024 bits).
+MAX_FORMULA = 1000
+MAX_BITS = 1100
 _FUNCTIONS = {"sqrt": math.sqrt, "ceil": math.ceil, "floor": math.floor, "round": round, "min": min,
               "max": max, "abs": abs}  # fmt: skip
 _OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
@@ -152,10 +156,12 @@ def _evaluate(source: str, values: dict[str, int | float], error) -> int | float
         body = body[1:-1]
     elif not body.isidentifier():
         error(f"'{source}': write $name or $(formula)")
+    if len(body) > MAX_FORMULA:
+        error(f"'{source[:40]}...': a formula is at most {MAX_FORMULA} characters (this one {len(body)})")
     try:
         tree = ast.parse(body, mode="eval")
-    except SyntaxError:
-        error(f"'{source}' is not a formula")
+    except (SyntaxError, RecursionError, MemoryError):
+        error(f"'{source[:60]}' is not a formula (or is nested too deeply)")
     try:
         return _eval(tree.body, values)
     except NameError as exc:
@@ -163,7 +169,16 @@ def _evaluate(source: str, values: dict[str, int | float], error) -> int | float
         error(f"'{source}': unknown parameter '{name}'" + suggest(name, values))
     except (ValueError, TypeError, ZeroDivisionError, OverflowError) as exc:
         error(f"'{source}': {exc}")
+    except RecursionError:
+        error(f"'{source[:60]}': nested too deeply")
     raise AssertionError("unreachable")
+
+
+def _small(value: int | float) -> int | float:
+    """``value`` if it is a number of bounded size: every step of a formula stays cheap."""
+    if isinstance(value, int) and value.bit_length() > MAX_BITS:
+        raise ValueError(f"number too large (more than {MAX_BITS} bits)")
+    return value
 
 
 def _eval(node: ast.AST, values: dict[str, int | float]) -> int | float:
@@ -176,13 +191,16 @@ def _eval(node: ast.AST, values: dict[str, int | float]) -> int | float:
         return values[node.id]
     if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
         left, right = _eval(node.left, values), _eval(node.right, values)
-        if isinstance(node.op, ast.Pow) and abs(right) > 64:
-            raise ValueError("exponent too large")  # 10**10**10 would never finish
-        return _OPERATORS[type(node.op)](left, right)
+        if isinstance(node.op, ast.Pow):
+            if abs(right) > 64:
+                raise ValueError("exponent too large")  # 10**10**10 would never finish
+            if isinstance(left, int) and left.bit_length() * abs(right) > MAX_BITS:
+                raise ValueError(f"number too large (more than {MAX_BITS} bits)")  # (10**64)**64**64...
+        return _small(_OPERATORS[type(node.op)](left, right))
     if isinstance(node, ast.UnaryOp) and type(node.op) in _OPERATORS:
-        return _OPERATORS[type(node.op)](_eval(node.operand, values))
+        return _small(_OPERATORS[type(node.op)](_eval(node.operand, values)))
     if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCTIONS
             and not node.keywords):  # fmt: skip
-        return _FUNCTIONS[node.func.id](*(_eval(a, values) for a in node.args))
+        return _small(_FUNCTIONS[node.func.id](*(_eval(a, values) for a in node.args)))
     raise ValueError(f"'{ast.unparse(node)}' is not allowed (numbers, parameters, + - * / // % **, "
                      + ", ".join(_FUNCTIONS) + ")")  # fmt: skip

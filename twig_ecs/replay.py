@@ -14,6 +14,9 @@ that many steps) and the error it gave, if any::
 and, when the server stops, ``{"end": FRAME, "state_hash": HASH}``. Replaying loads the
 same scene and seed, steps to each command's frame, applies it through the same method
 function as the server did, steps to the end frame and compares the state hash.
+A replay file is data (see :mod:`twig_ecs.trust`): it writes only its embedded ``.yaml``
+files, only inside its temporary folder, and its scene runs no plug-in file unless the
+user passes ``--trust``; frames past :data:`MAX_FRAMES` are refused.
 Only commands that reached the simulation are recorded: requests refused while being
 checked (bad JSON, bad parameters) never touch the world. ``pause``, ``resume`` and
 ``step`` are clock controls: their effect is in the frame numbers.
@@ -27,8 +30,11 @@ from pathlib import Path
 from typing import IO, Any
 
 from twig_ecs.errors import TwigError
+from twig_ecs.trust import loading_data
 
 FORMAT_VERSION = 1
+#: Latest frame a replay may name (24 h at 60 Hz): a replay never runs for ever.
+MAX_FRAMES = 24 * 3600 * 60
 #: Methods whose effect on the world is only the passing of time (already in the frame numbers).
 CLOCK_METHODS = ("pause", "resume", "step")
 
@@ -130,12 +136,64 @@ def read_replay(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]],
         raise ReplayError(
             f"replay format version {header['twig_replay']}; this twig-ecs reads {FORMAT_VERSION}"
         )
+    _check_header(header, path)
     end = items[-1] if len(items) > 1 and isinstance(items[-1], dict) and "end" in items[-1] else None
     commands = items[1 : len(items) - (1 if end else 0)]
     for k, item in enumerate(commands):
-        if not (isinstance(item, dict) and isinstance(item.get("frame"), int) and "method" in item):
-            raise ReplayError(f"'{path}': line {k + 2} is not a command record")
+        ok = isinstance(item, dict) and _is_frame(item.get("frame")) and isinstance(item.get("method"), str)
+        if not ok or not isinstance(item.get("params") or {}, dict):
+            raise ReplayError(
+                f"'{path}': line {k + 2} is not a command record "
+                f"(needs frame: 0..{MAX_FRAMES}, method: a name, params: an object)"
+            )
+    if end is not None and not _is_frame(end.get("end")):
+        raise ReplayError(f"'{path}': the end line's 'end' must be a frame number 0..{MAX_FRAMES}")
     return header, commands, end
+
+
+def _is_frame(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_FRAMES
+
+
+def _check_header(header: dict[str, Any], path: str | Path) -> None:
+    """The header's fields have the types a replay needs (ReplayError naming the first that does not)."""
+    checks = {
+        "scene": lambda v: isinstance(v, str),
+        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool),
+        "content": lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v),
+        "autonomous": lambda v: isinstance(v, bool),
+        "files": lambda v: v is None or _files_ok(v),
+    }
+    for key, ok in checks.items():
+        if key in header and not ok(header[key]):
+            raise ReplayError(f"'{path}': the header's '{key}' has the wrong type ({header[key]!r:.60})")
+    if not isinstance(header.get("scene"), str):
+        raise ReplayError(f"'{path}': the header names no scene")
+
+
+def _files_ok(files: Any) -> bool:
+    if not isinstance(files, dict):
+        return False
+    scene = files.get("scene") or {}
+    content = files.get("content") or {}
+    return (
+        isinstance(scene, dict)
+        and all(isinstance(scene.get(k), str) for k in ("path", "text") if k in scene)
+        and isinstance(content, dict)
+        and all(isinstance(t, dict) and all(isinstance(r, str) and isinstance(x, str) for r, x in t.items())
+                for t in content.values())
+    )  # fmt: skip
+
+
+def _inside(root: Path, rel: str) -> Path:
+    """``root / rel`` for an embedded YAML file, refusing anything that would land outside ``root``."""
+    where = Path(rel)
+    target = (root / where).resolve()
+    if where.is_absolute() or ".." in where.parts or not target.is_relative_to(root.resolve()):
+        raise ReplayError(f"the replay embeds a file named '{rel}': it would be written outside its folder")
+    if where.suffix not in (".yaml", ".yml"):
+        raise ReplayError(f"the replay embeds '{rel}'; a replay carries only .yaml files")
+    return target
 
 
 def _load_scene(header: dict[str, Any], folder: Path):
@@ -156,14 +214,16 @@ def _load_scene(header: dict[str, Any], folder: Path):
         content = []
         for k, (_d, texts) in enumerate(files.get("content", {}).items()):
             root = folder / f"content{k}"
+            root.mkdir(parents=True, exist_ok=True)
             for rel, text in texts.items():
-                (root / rel).parent.mkdir(parents=True, exist_ok=True)
-                (root / rel).write_text(text, encoding="utf-8")
+                target = _inside(root, rel)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_text(text, encoding="utf-8")
             content.append(str(root))
-        # beside the original's folder name, so relative plug-in paths (systems: use: x.py:C) still resolve
-        source = folder / Path(scene_file["path"]).name
-        source.write_text(scene_file["text"], encoding="utf-8")
-    return Scene.load(source, seed=int(header.get("seed", 0)), content=content)
+        source = _inside(folder, Path(str(scene_file.get("path", "scene.yaml"))).name or "scene.yaml")
+        source.write_text(scene_file.get("text", ""), encoding="utf-8")
+    with loading_data():  # a replay is data: its scene may not run plug-in files unless --trust
+        return Scene.load(source, seed=int(header.get("seed", 0)), content=content)
 
 
 def _same(path: str | None, text: str | None) -> bool:

@@ -28,6 +28,7 @@ from twig_ecs.templates import (
     read_damping,
     read_pain,
 )
+from twig_ecs.trust import check_plugin
 from twig_ecs.validate import (
     LIMIT,
     between,
@@ -366,6 +367,7 @@ def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
         check_keys(item, here, SYSTEM_KEYS)
         reference = read(item, "use", here, text)
         try:
+            check_plugin(reference, path.parent)  # untrusted scenes: plug-ins from their own folder only
             cls = load_class(reference, str(path.parent))
         except TwigError as exc:
             fail(item, "use", join(here, "use"), str(exc))

@@ -14,11 +14,13 @@ File layout (all integers big-endian)::
     payload length           u64, then that many bytes of pickle (protocol 5)
     SHA-256                  32 bytes, of everything before it
 
-**Snapshot files are trusted input**, like the plug-in code a scene names: the payload
-is a pickle. It is read with a restricted unpickler that admits only classes from
-twig_ecs, numpy, esper, a few harmless builtins, and the plug-in modules the snapshot
-lists (which are imported, i.e. run) - that stops accidents and casual tampering, but
-do not load snapshots from people you would not take code from.
+**Snapshot files are data** unless the user trusts them (``--trust``, see
+:mod:`twig_ecs.trust`): the payload is a pickle, read with a restricted unpickler that
+admits only classes of twig_ecs (not those that do input/output when built), plain numpy
+values (arrays, dtypes, scalars, random generators - no memmap), esper, a few harmless
+builtins, and the plug-in modules the snapshot lists - and those only when they are
+installed twig plug-ins, were loaded by this process from a scene the user ran, or the
+user trusts the file. A pickle is a program, so keep to snapshots you wrote or trust.
 
 Numba kernels and anything with a socket are not state: systems hold kernels by
 module reference (a kernel object met while pickling is stored as its name and looked
@@ -44,6 +46,7 @@ from typing import Any
 
 from twig_ecs import esperworld
 from twig_ecs.errors import TwigError
+from twig_ecs.trust import UntrustedCode, check_snapshot_plugin
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
@@ -82,6 +85,25 @@ _SAFE_FUNCTIONS = {
     ("twig_ecs.snapshot", "_new_scene"),
     ("twig_ecs.snapshot", "_kernel"),
 }
+
+
+#: Modules of allowed packages whose classes do input/output when built (a recorder opens its
+#: file): a snapshot never holds them, so it may not name them.
+_IO_MODULES = ("twig_ecs.replay", "twig_ecs.server", "twig_ecs.client", "twig_ecs.graphics", "twig_ecs.bench",
+               "twig_ecs.cli", "twig_ecs.report", "twig_ecs.metrics", "twig_ecs.__main__")  # fmt: skip
+
+
+def _plain_class(top: str, cls: type) -> bool:
+    """A class a snapshot may build: of numpy only dtypes, scalars, plain arrays and generators."""
+    if top != "numpy":
+        return True
+    import numpy as np
+
+    if cls is np.ndarray or issubclass(cls, np.dtype | np.generic):
+        return True
+    return cls.__module__.startswith("numpy.random") and issubclass(
+        cls, np.random.Generator | np.random.BitGenerator | np.random.SeedSequence
+    )
 
 
 class SnapshotError(TwigError):
@@ -328,6 +350,10 @@ def _import_plugins(plugins: Any) -> set[str]:
         module, file = (item.get("module"), item.get("file")) if isinstance(item, dict) else (None, None)
         if not isinstance(module, str) or not isinstance(file, str | None):
             raise SnapshotError("snapshot corrupt: bad plug-in list")
+        try:
+            check_snapshot_plugin(module, file)
+        except UntrustedCode as exc:
+            raise SnapshotError(str(exc)) from None
         if module not in sys.modules:
             try:
                 if file and Path(file).is_file() and module.startswith("twig_plugin_"):
@@ -360,11 +386,12 @@ class _Unpickler(pickle.Unpickler):
         top = module.split(".")[0]
         if (module == "builtins" and name in _SAFE_BUILTINS) or (module, name) in _SAFE_OTHERS:
             return super().find_class(module, name)
-        if top in _SAFE_PACKAGES or module in self.plugins:
+        if (top in _SAFE_PACKAGES or module in self.plugins) and not module.startswith(_IO_MODULES):
             found = super().find_class(module, name)
             # classes only, and the few functions that rebuild arrays, generators, scenes and kernels:
-            # an arbitrary function of an allowed module could still do anything
-            if isinstance(found, type) or (module, name) in _SAFE_FUNCTIONS:
+            # an arbitrary function of an allowed module could still do anything; and of numpy only
+            # plain values (an ndarray subclass such as memmap opens files when built)
+            if (module, name) in _SAFE_FUNCTIONS or (isinstance(found, type) and _plain_class(top, found)):
                 return found
         raise SnapshotError(
             f"snapshot refers to {module}.{name}, which a snapshot may not load "

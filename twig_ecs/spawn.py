@@ -24,12 +24,34 @@ from twig_ecs.templates import BodyTemplate, Damping
 if TYPE_CHECKING:
     from twig_ecs.scene import Scene
 
+#: Most bodies one scene may hold (twice the crowd's largest count): every step costs at least
+#: their number, and a server must keep answering.
+MAX_BODIES = 10000
+#: Largest a body may be across (m): the broad phase files every body in the grid cells its
+#: box covers, so one huge body (a merry-go-round of height 100) makes each step take seconds.
+MAX_EXTENT = 30.0
+
 
 def yaw_matrix(degrees: float) -> np.ndarray:
     """Rotation about +y taking the template's forward (+z) to (sin a, 0, cos a)."""
     a = math.radians(degrees)
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float) -> None:
+    """Refuse (SceneError, with the limit and the way out) a body past MAX_BODIES or MAX_EXTENT."""
+    from twig_ecs.errors import SceneError
+
+    bodies = scene.state.bodies.count
+    if bodies >= MAX_BODIES:
+        raise SceneError(f"cannot add '{name}': the scene already has {bodies} bodies, the most it may "
+                         f"hold (MAX_BODIES); remove some first")  # fmt: skip
+    local = np.array([n.at for n in template.nodes], dtype=np.float64) * scale
+    extent = float(np.ptp(local, axis=0).max()) if len(local) else 0.0
+    if extent > MAX_EXTENT:
+        raise SceneError(f"cannot add '{name}': at this height it would be {extent:.0f} m across, over "
+                         f"the {MAX_EXTENT:.0f} m limit (MAX_EXTENT); give a smaller height")  # fmt: skip
 
 
 def spawn_body(
@@ -52,6 +74,7 @@ def spawn_body(
     state = scene.state
     height = height or template.height
     scale = height / template.reference_height
+    check_capacity(scene, name, template, scale)
     total = sum(n.mass for n in template.nodes)
     target_mass = mass or template.mass
     mass_scale = target_mass / total if target_mass else scale**3

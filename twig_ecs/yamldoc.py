@@ -45,33 +45,37 @@ class YList(list):
 #: Most values one document may hold (after expanding aliases): a guard against
 #: "billion laughs" documents that would otherwise expand without end.
 MAX_VALUES = 1_000_000
+#: Deepest nesting of mappings and lists (a scene needs about 6).
+MAX_DEPTH = 64
 #: Largest file read, in bytes.
 MAX_BYTES = 16 * 1024 * 1024
 
 
 def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor,
-             budget: list[int]) -> Any:  # fmt: skip
+             budget: list[int], depth: int = 0) -> Any:  # fmt: skip
     budget[0] -= 1
     if budget[0] < 0:
         raise SceneError(f"document too large: more than {MAX_VALUES} values (aliases expanded)", file)
     line = node.start_mark.line + 1
+    if depth > MAX_DEPTH:  # deep nesting, or an alias that contains itself (&a [*a])
+        raise SceneError(f"nested more than {MAX_DEPTH} deep (or an alias refers to itself)", file, line)
     if isinstance(node, yaml.MappingNode):
         out = YDict()
         out.file, out.line, out.key_lines = file, line, {}
         for key_node, value_node in node.value:
-            key = _convert(key_node, file, constructor, budget)
+            key = _convert(key_node, file, constructor, budget, depth + 1)
             if isinstance(key, (YDict, YList)):
                 raise SceneError("mapping keys must be plain values", file, key_node.start_mark.line + 1)
             if key in out:
                 raise SceneError(f"duplicate key '{key}'", file, key_node.start_mark.line + 1)
-            out[key] = _convert(value_node, file, constructor, budget)
+            out[key] = _convert(value_node, file, constructor, budget, depth + 1)
             out.key_lines[key] = (file, key_node.start_mark.line + 1)
         return out
     if isinstance(node, yaml.SequenceNode):
         out = YList()
         out.file, out.line = file, line
         out.item_lines = [item.start_mark.line + 1 for item in node.value]
-        out.extend(_convert(item, file, constructor, budget) for item in node.value)
+        out.extend(_convert(item, file, constructor, budget, depth + 1) for item in node.value)
         return out
     return constructor.construct_object(node, deep=True)
 
@@ -111,6 +115,8 @@ def parse_yaml(text: str, file: str = "<string>") -> Any:
         raise SceneError(f"invalid YAML: {problem}", file, line) from None
     except yaml.YAMLError as exc:
         raise SceneError(f"invalid YAML: {exc}", file) from None
+    except RecursionError:  # the YAML parser itself, on thousands of nested brackets
+        raise SceneError(f"invalid YAML: nested more than {MAX_DEPTH} deep", file) from None
 
 
 def merge(base: Any, override: Any) -> Any:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -44,13 +45,14 @@ def test_a_command_outranks_the_dance(floor):
 
 def test_a_misspelled_plug_in_is_reported_with_file_and_line(tmp_path):
     scene = tmp_path / "bad.yaml"
-    scene.write_text(f"twig: 1\nsystems:\n  - use: {HERE / 'dance.py'}:Dnace\nentities: []\n")
+    shutil.copy(HERE / "dance.py", tmp_path)  # plug-in files come from the scene's own folder
+    scene.write_text("twig: 1\nsystems:\n  - use: dance.py:Dnace\nentities: []\n")
     with pytest.raises(
         SceneError, match=r"bad.yaml:3: systems\[0\].use: .* has no 'Dnace' \(did you mean 'Dance'\?\)"
     ):
         Scene.load(scene)
     scene.write_text(
-        f"twig: 1\nsystems:\n  - use: {HERE / 'dance.py'}:Dance\nentities:\n"
+        "twig: 1\nsystems:\n  - use: dance.py:Dance\nentities:\n"
         "  - {name: d, body: humanoid, character: true, behaviors: [{use: danse}]}\n"
     )
     with pytest.raises(

@@ -42,10 +42,22 @@ DEFAULT_TWIG_PORT = 10001
 MAX_INFLIGHT = 64
 #: Unsent bytes to one client beyond which it is disconnected as too slow.
 MAX_UNSENT = 8 << 20
+#: Longest answer line (bytes): a bigger one is replaced by an error saying to ask for less.
+MAX_ANSWER = 4 << 20
+#: Frames between the checkpoints a failed step is rolled back from (and after every command).
+CHECKPOINT_EVERY = 120
+#: Seconds a client of a server with a token has to authenticate before it is disconnected.
+AUTH_TIMEOUT = 30.0
+#: Most requests in one JSON-RPC batch.
+MAX_BATCH = 256
 #: Most simulation steps run to catch up after a stall (then the clock drops the rest).
 MAX_CATCH_UP = 5
 #: Longest the loop spends applying queued commands before stepping again (s).
 COMMAND_BUDGET = 0.008
+#: Queued methods that leave the world as it was (no new rollback checkpoint after them).
+READ_ONLY = frozenset(
+    {"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume", "step"}
+)  # step: only steps, which the rollback replays
 _session_ids = itertools.count(1)
 
 
@@ -74,15 +86,17 @@ class Session:
         self.authenticated = server.token is None
         self.inflight = asyncio.Semaphore(self.inflight_limit)
         self.closed = False
+        self.ending = False  # a wrong token (or a call before auth): the connection is closing
 
     # -- output (never waits) --------------------------------------------------------------
 
     def write(self, data: bytes) -> None:
         if self.closed:
             return
+        behind = self.writer.transport.get_write_buffer_size()  # before this answer: it may be big
         self.writer.write(data)
         unsent = self.writer.transport.get_write_buffer_size()
-        if unsent > MAX_UNSENT:
+        if behind > MAX_UNSENT:
             self.server.log(f"client {self.peer} is {unsent >> 20} MiB behind: disconnected")
             self.abort()
 
@@ -104,11 +118,18 @@ class Session:
         lines = rpc.LineReader(self.reader)
         try:
             await self.greet()
-            while not self.closed:
+            while not self.closed and not self.ending:
                 if self.writer.transport.get_write_buffer_size() > 1 << 20:
                     await self.writer.drain()  # it is not reading: stop reading it too
                 await self.inflight.acquire()
-                line = await lines.next()
+                if self.authenticated:
+                    line = await lines.next()
+                else:  # an idle connection that never authenticates does not hold a socket for ever
+                    try:
+                        line = await asyncio.wait_for(lines.next(), self.server.auth_timeout)
+                    except TimeoutError:
+                        self.server.log(f"client {self.peer} sent no token in {self.server.auth_timeout:g} s")
+                        break
                 if line is None:
                     break
                 if line is rpc.TOO_LONG:
@@ -131,18 +152,24 @@ class Session:
         self, name: str, params: dict[str, Any] | list[Any], done: Callable[[Any, RPCError | None], None]
     ) -> None:
         """Check and run (or queue) one call; ``done(result, error)`` is called exactly once."""
+        if self.ending:  # refused once: nothing more from this connection runs, batch included
+            done(None, RPCError(rpc.UNAUTHORIZED, "refused: this connection is closing"))
+            return
+        if not self.authenticated and name != "auth":  # before auth, not even the method list
+            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
+            self.close_soon()
+            return
         method = METHODS.get(name)
         if method is None:
             done(None, RPCError(rpc.METHOD_NOT_FOUND, f"unknown method '{name}'" + suggest(name, METHODS)))
-            return
-        if not self.authenticated and name != "auth":
-            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
-            self.close_soon()
             return
         try:
             params = bind(method, params)
         except RPCError as exc:
             done(None, exc)
+            return
+        except RecursionError:  # JSON nested just under the parser's limit
+            done(None, RPCError(rpc.INVALID_PARAMS, f"{name}: parameters nested too deeply"))
             return
         if name == "auth":
             token = self.server.token
@@ -157,9 +184,24 @@ class Session:
             done(method.fn(self.server, self, **params), None)
 
     def close_soon(self) -> None:
-        """Close after what was written is sent."""
-        self.closed = True
-        self.writer.close()
+        """Run nothing more; close once the answers to the current line are written."""
+        self.ending = True
+        asyncio.get_running_loop().call_soon(self._close_now)
+
+    def _close_now(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self.writer.close()
+
+
+def _too_big(obj: Any, size: int) -> Any:
+    """An error answer (or batch of them) in place of an answer of ``size`` bytes."""
+    message = (f"the answer is {size / (1 << 20):.1f} MiB, over the {MAX_ANSWER >> 20} MiB limit: "
+               "ask for less (get_state NAME for one entity, list_entities for names)")  # fmt: skip
+    error = RPCError(rpc.INTERNAL_ERROR, message)
+    if isinstance(obj, list):
+        return [rpc.error_response(a.get("id"), error) for a in obj if isinstance(a, dict)]
+    return rpc.error_response(obj.get("id") if isinstance(obj, dict) else None, error)
 
 
 class JsonSession(Session):
@@ -169,7 +211,10 @@ class JsonSession(Session):
         self.write(rpc.dumps(rpc.notification(kind, params)))
 
     def _send(self, obj: Any) -> None:
-        self.write(rpc.dumps(obj))
+        data = rpc.dumps(obj)
+        if len(data) > MAX_ANSWER:  # one answer must not swamp the client (nor the server's memory)
+            data = rpc.dumps(_too_big(obj, len(data)))
+        self.write(data)
 
     def handle_too_long(self) -> None:
         error = RPCError(rpc.INVALID_REQUEST, f"request line longer than {rpc.MAX_LINE} bytes: refused")
@@ -217,6 +262,10 @@ class JsonSession(Session):
         if not items:
             self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, "empty batch")))
             return
+        if len(items) > MAX_BATCH:
+            message = f"a batch of {len(items)} requests: at most {MAX_BATCH} (send several lines)"
+            self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, message)))
+            return
         answers: list[dict[str, Any] | None] = [None] * len(items)
         left = [len(items)]
 
@@ -240,6 +289,8 @@ class Server:
     :attr:`port`) and starts the simulation loop; ``await server.stop()`` ends both
     and closes the scene (if ``own_scene``). ``window``: a play window to draw each frame.
     ``recorder``: a :class:`~twig_ecs.replay.Recorder` that logs every applied command.
+    ``rollback``: save the world before every step so that a step that raises is undone
+    (costs a snapshot per step; without it a failed step may leave the world half-advanced).
     """
 
     def __init__(
@@ -255,6 +306,7 @@ class Server:
         own_scene: bool = True,
         log: Callable[[str], None] | None = None,
         recorder=None,
+        rollback: bool = True,
     ) -> None:
         self.scene = scene
         self.host = host
@@ -265,11 +317,15 @@ class Server:
         self.autonomous = autonomous
         self.window = window
         self.own_scene = own_scene
+        self.rollback = rollback
+        self.auth_timeout = AUTH_TIMEOUT
         self.log = log or (lambda text: print(f"twig serve: {text}", file=sys.stderr, flush=True))
         self.sessions: set[Session] = set()
         self.goal_owners: dict[int, Session] = {}
         self.steps_run = 0
-        self._queue: collections.deque[Command] = collections.deque()
+        # one queue per client, served in turn (one command each): a client that sends
+        # thousands of requests delays another's by at most one command per busy client
+        self._queues: dict[Session, collections.deque[Command]] = collections.OrderedDict()
         self._pending: list[Any] = []  # scene events since the last flush
         self._grabs: dict[int, tuple[str, str | None, str]] = {}
         self._listeners: list[asyncio.base_events.Server] = []
@@ -290,6 +346,7 @@ class Server:
         self.scene = scene
         self.goal_owners.clear()
         self._pending.clear()
+        self._checkpoint = None  # a new scene (the window reloaded it): checkpoints of the old are void
         if not self.autonomous:
             for name in scene.entity_names:
                 handle = scene.entity(name)
@@ -346,8 +403,8 @@ class Server:
         for listener in self._listeners:
             await listener.wait_closed()
         self._listeners.clear()
-        while self._queue:
-            self._queue.popleft().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
+        while self._queues:
+            self._next_command().done(None, RPCError(rpc.NOT_NOW, "the server is shutting down"))
         if self.recorder is not None:
             self.recorder.close(self.scene.frame, self.scene.state_hash())
         if self.window is not None and not self.window.closed:
@@ -373,9 +430,22 @@ class Server:
 
     def submit(self, command: Command) -> None:
         """Queue a command for the simulation loop."""
-        self._queue.append(command)
+        queue = self._queues.get(command.session)
+        if queue is None:
+            queue = self._queues[command.session] = collections.deque()
+        queue.append(command)
         if self._wakeup is not None:
             self._wakeup.set()
+
+    def _next_command(self) -> Command:
+        """The next command, taking clients in turn (round robin over their own queues)."""
+        session, queue = next(iter(self._queues.items()))
+        command = queue.popleft()
+        if queue:
+            self._queues.move_to_end(session)
+        else:
+            del self._queues[session]
+        return command
 
     async def _apply(self, command: Command) -> None:
         frame = self.scene.frame
@@ -394,10 +464,16 @@ class Server:
             error = RPCError(rpc.INTERNAL_ERROR, f"internal error in {command.method.name}: {exc!r}")
         else:
             error = None
+        if command.method.name not in READ_ONLY:
+            self._changed = True  # the next step saves a new rollback checkpoint first
         if self.recorder is not None:
             self.recorder.command(frame, command.method.name, command.params, error and error.message)
         self._flush()  # what the command set off (a cancelled goal), before its answer
-        command.done(result if error is None else None, error)
+        try:
+            command.done(result if error is None else None, error)
+        except Exception:  # answering one client must never stop the simulation for all
+            self.log(f"answering {command.method.name} failed:\n{traceback.format_exc()}")
+            command.session.abort()
 
     # -- the simulation ------------------------------------------------------------------------
 
@@ -408,6 +484,18 @@ class Server:
     _next_tick = 0.0
 
     async def _run(self) -> None:
+        """The simulation task: it never ends on an error, it logs it, pauses and goes on."""
+        while True:
+            try:
+                await self._loop()
+            except asyncio.CancelledError:
+                raise
+            except Exception:  # a bug outside the step itself: the server must keep answering
+                self.log(f"the simulation loop failed; paused:\n{traceback.format_exc()}")
+                self.paused = True
+                await asyncio.sleep(0)
+
+    async def _loop(self) -> None:
         loop = asyncio.get_running_loop()
         wakeup = self._wakeup
         assert wakeup is not None
@@ -418,8 +506,9 @@ class Server:
             if now >= self._next_tick and (not self.paused or self.window is not None):
                 if not self.paused:
                     steps = 0
-                    while now >= self._next_tick and steps < MAX_CATCH_UP:
-                        self._step_frame()
+                    while now >= self._next_tick and steps < MAX_CATCH_UP and not self.paused:
+                        if not self._try_step():
+                            break
                         self._next_tick += self.scene.dt
                         steps += 1
                     if now >= self._next_tick:  # too far behind: drop the time we cannot catch up
@@ -429,11 +518,11 @@ class Server:
                 if self.window is not None:
                     self._draw()
             budget = time.perf_counter() + COMMAND_BUDGET
-            while self._queue:
-                await self._apply(self._queue.popleft())
+            while self._queues:
+                await self._apply(self._next_command())
                 if time.perf_counter() > budget:
                     break
-            if self._queue:
+            if self._queues:
                 await asyncio.sleep(0)  # let the sockets in before the next batch
                 continue
             wakeup.clear()
@@ -443,18 +532,92 @@ class Server:
             if timer is not None:
                 timer.cancel()
 
+    def _try_step(self) -> bool:
+        """One real-time step; False (and paused) if it failed."""
+        try:
+            self._step_frame()
+        except RPCError:
+            return False
+        return True
+
     def _step_frame(self) -> None:
+        """One step, or none at all: a step that raises is undone (see :meth:`_roll_back`)."""
+        self._keep_checkpoint()
         try:
             self.scene.step(1)
-        except Exception:
+        except Exception as exc:
             self.log(f"the simulation failed at frame {self.scene.frame}; paused:\n{traceback.format_exc()}")
+            failed = self.scene.frame  # the frame the step started from
+            rolled_back = self._roll_back(failed)
             self.paused = True
             self._pending.clear()
+            cause = f"{type(exc).__name__}: {exc}"
+            message = f"step {failed + 1} failed ({cause})" + (
+                "; the world is as before it, paused" if rolled_back else "; paused"
+            )
             for session in list(self.sessions):
-                session.send_event("simulation.error", {"frame": self.scene.frame, "message": "step failed"})
-            raise RPCError(rpc.INTERNAL_ERROR, "the simulation failed; it is paused") from None
+                if session.authenticated:
+                    session.send_event(
+                        "simulation.error",
+                        {"frame": self.scene.frame, "message": message, "rolled_back": rolled_back},
+                    )
+            raise RPCError(rpc.INTERNAL_ERROR, f"the simulation failed: {message}") from None
         self.steps_run += 1
         self._flush()
+
+    # -- rollback: a checkpoint now and then, and the steps since replayed (they are deterministic) --
+
+    _checkpoint: bytes | None = None
+    _checkpoint_frame = -1
+    _changed = True  # a command changed the world since the checkpoint
+
+    def _keep_checkpoint(self) -> None:
+        """Save the world every CHECKPOINT_EVERY frames and before the first step after a command."""
+        if not self.rollback:
+            return
+        scene = self.scene
+        due = self._checkpoint is None or scene.frame - self._checkpoint_frame >= CHECKPOINT_EVERY
+        if not (due or self._changed):
+            return
+        try:
+            self._checkpoint = scene.snapshot()
+        except Exception as exc:  # a world that cannot be saved still runs, without the safety net
+            self.log(f"no rollback point (the world cannot be saved: {exc}); steps run without one")
+            self.rollback = False
+            self._checkpoint = None
+            return
+        self._checkpoint_frame = scene.frame
+        self._changed = False
+
+    def _roll_back(self, frame: int) -> bool:
+        """Put the world back as it was at ``frame`` (before the failed step); True if possible.
+
+        The checkpoint is restored and stepped on to ``frame``: nothing but steps happened
+        since it was taken, and steps are deterministic, so this is the world as it was.
+        """
+        checkpoint, since = self._checkpoint, self._checkpoint_frame
+        if checkpoint is None or not since <= frame:
+            return False
+        from twig_ecs.scene import Scene
+        from twig_ecs.trust import trusting
+
+        try:
+            with trusting():  # our own snapshot: its plug-ins are already loaded
+                restored = Scene.restore(checkpoint)
+            restored.step(frame - since)  # no server listening yet: these events were sent before
+        except Exception:
+            self.log(f"rolling back failed:\n{traceback.format_exc()}")
+            return False
+        old = self.scene
+        self.scene = restored
+        self._pending.clear()
+        for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
+            restored.on(kind, self._pending.append)
+        if self.window is not None:
+            self.window.viewer.scene = restored
+        old.close()
+        restored.activate()
+        return True
 
     async def step_frames(self, n: int) -> None:
         """Advance ``n`` frames (the ``step`` method), letting the sockets in now and then.
@@ -490,6 +653,7 @@ class Server:
             for goal in handle.goals:
                 if entity == removed or name in (goal.params.get(k) for k in ("target", "to", "on")):
                     scene.end_goal(handle, goal, False, f"'{name}' was removed")
+        self._flush()  # while the name is still known: goal.failed names the character, not its id
         scene.remove(name)
         self._flush()
 

@@ -25,6 +25,10 @@ _REQUIRED = object()
 EVENT_KINDS = ("goal.done", "goal.failed", "behavior.changed", "pain", "contact", "grab", "release")
 #: Most frames one ``step`` call may run (60 s of simulated time).
 MAX_STEP = 3600
+#: Bodies beyond which ``spawn`` is refused: the steps (and so every answer) stay quick.
+MAX_SERVED_BODIES = 2000
+#: Deepest nesting of lists and objects inside a parameter.
+MAX_NESTING = 16
 #: Longest duration (s) a goal may be given.
 MAX_DURATION = 3600.0
 
@@ -71,7 +75,10 @@ def _bad(message: str) -> RPCError:
 def _number(p: Param, value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise _bad(f"{where} must be a number, got {_show(value)}")
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # a whole number past 1e308
+        value = math.inf if value > 0 else -math.inf
     if not math.isfinite(value):
         raise _bad(f"{where} must be a finite number, got {_show(value)}")
     if not p.low <= value <= p.high:
@@ -82,8 +89,21 @@ def _number(p: Param, value: Any, where: str) -> float:
 def _show(value: Any) -> str:
     if isinstance(value, float) and not math.isfinite(value):
         return "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
-    text = repr(value) if not isinstance(value, str) else f"'{value}'"
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"a {len(str(abs(value)))}-digit number"
+    try:
+        text = repr(value) if not isinstance(value, str) else f"'{value}'"
+    except RecursionError:  # a list nested hundreds deep
+        return f"a deeply nested {type(value).__name__}"
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _check_text(value: str, where: str) -> None:
+    """Refuse text that cannot be written back as UTF-8 (a lone surrogate from a JSON escape)."""
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _bad(f"{where} is not valid Unicode text (it holds a lone surrogate such as \\ud800)") from None
 
 
 def _vector(p: Param, value: Any) -> tuple[float, ...]:
@@ -108,6 +128,7 @@ def check_value(p: Param, value: Any) -> Any:
             raise _bad(f"{where} must be a non-empty string, got {_show(value)}")
         if len(value) > 200:
             raise _bad(f"{where} is too long ({len(value)} characters; at most 200)")
+        _check_text(value, where)
         return value
     if kind == "number":
         return _number(p, value, where)
@@ -146,6 +167,7 @@ def check_value(p: Param, value: Any) -> Any:
     if kind == "object":
         if not isinstance(value, dict | bool):
             raise _bad(f"{where} must be an object or a boolean, got {_show(value)}")
+        _check_plain(value, p.name)
         return value
     if kind == "color":
         if not isinstance(value, list) or len(value) != 3:
@@ -282,16 +304,23 @@ def gesture(server: Server, session: Session, character: str, name: str, target,
     return _goal(server, session, character, "gesture", params)
 
 
-def _check_plain(value: Any, where: str) -> None:
-    """Every number inside a JSON value finite and not huge."""
+def _check_plain(value: Any, where: str, depth: int = 0) -> None:
+    """Every number inside a JSON value finite and not huge, every text valid, nesting shallow."""
+    if depth > MAX_NESTING:
+        raise _bad(f"'{where}' is nested more than {MAX_NESTING} deep")
     if isinstance(value, dict):
         for k, v in value.items():
-            _check_plain(v, f"{where}.{k}")
+            _check_plain(v, f"{where}.{k}", depth + 1)
     elif isinstance(value, list):
         for i, v in enumerate(value):
-            _check_plain(v, f"{where}[{i}]")
+            _check_plain(v, f"{where}[{i}]", depth + 1)
     elif isinstance(value, float | int) and not isinstance(value, bool):
         _number(Param("", "number"), value, f"'{where}'")
+    elif isinstance(value, str):
+        _check_text(value, f"'{where}'")
+    if isinstance(value, dict):
+        for k in value:
+            _check_text(str(k), f"'{where}' key")
 
 
 def goal_do(server: Server, session: Session, character: str, behavior: str, params: Any):
@@ -337,6 +366,11 @@ def spawn(
     server: Server, session: Session, name: str | None, template: str, position, facing: float, **extra
 ) -> dict[str, Any]:
     params = {k: v for k, v in extra.items() if v is not None}
+    bodies = server.scene.state.bodies.count
+    if bodies >= MAX_SERVED_BODIES:
+        message = (f"spawn refused: the scene has {bodies} bodies and a server spawns up to "
+                   f"{MAX_SERVED_BODIES} (more would slow every step); remove some first")  # fmt: skip
+        raise RPCError(NOT_NOW, message)
     handle = server.scene.spawn(template, name=name, position=position, facing=facing, **params)
     if isinstance(handle, CharacterHandle) and not server.autonomous:
         handle.autonomous = False

@@ -25,8 +25,6 @@ UNAUTHORIZED = -32002
 
 #: The longest request line accepted (bytes, newline excluded).
 MAX_LINE = 1 << 20
-#: Integers with more digits than this are read as floats (and so fail the size checks).
-_MAX_INT_DIGITS = 20
 
 
 class RPCError(Exception):
@@ -41,18 +39,15 @@ class RPCError(Exception):
         return {"code": self.code, "message": self.message}
 
 
-def _parse_int(text: str) -> int | float:
-    return int(text) if len(text) <= _MAX_INT_DIGITS else float(text)
-
-
 def loads(line: bytes | str) -> Any:
     """Decode one JSON document; RPCError(-32700) if it is not JSON.
 
     ``NaN`` and ``Infinity`` (which Python's json writes) are read as floats so that the
-    parameter checks can name them; huge integers become floats (infinite if too big).
+    parameter checks can name them; integers stay exact (a 30-digit request id comes back
+    as sent; the parameter checks refuse huge values).
     """
     try:
-        return json.loads(line, parse_int=_parse_int)
+        return json.loads(line)
     except (ValueError, RecursionError) as exc:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
         detail = str(exc) if not isinstance(exc, RecursionError) else "nested too deeply"
         raise RPCError(PARSE_ERROR, f"parse error: not valid JSON ({detail})") from None

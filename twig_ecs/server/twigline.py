@@ -21,7 +21,7 @@ from typing import Any
 
 from twig_ecs import __version__
 from twig_ecs.server import protocol as rpc
-from twig_ecs.server.core import Session
+from twig_ecs.server.core import MAX_ANSWER, Session
 from twig_ecs.server.methods import METHODS
 from twig_ecs.server.protocol import RPCError
 
@@ -32,6 +32,8 @@ GREETING = f"TwigServer\ntwig-ecs {__version__}\n".encode()
 _TOKEN = re.compile(
     r'\s*(?:(?P<str>"(?:[^"\\]|\\.)*")|(?P<open>[\[(])|(?P<close>[\])])|(?P<comma>,)|(?P<word>[^\s\[\]()",]+))'
 )
+#: Deepest nesting of brackets an argument may have (a vector needs 1).
+MAX_DEPTH = 8
 _WORDS = {"true": True, "false": False, "null": None, "nil": None, "none": None}
 
 
@@ -61,6 +63,8 @@ def parse_args(text: str) -> tuple[list[Any], dict[str, Any]]:
         if m["comma"]:
             continue
         if m["open"]:
+            if len(stack) >= MAX_DEPTH:
+                raise RPCError(rpc.INVALID_REQUEST, f"brackets nested more than {MAX_DEPTH} deep")
             stack.append([])
             continue
         if m["close"]:
@@ -144,11 +148,19 @@ class TwigSession(Session):
     def _answer(self, result: Any, error: RPCError | None) -> None:
         if error is not None:
             message = " ".join(error.message.split())
-            self.write(f"error {error.code} {message}\n".encode())
+            # backslashreplace: a lone surrogate a client sent (or a name holding one) comes back
+            # escaped instead of breaking the encoder
+            self.write(f"error {error.code} {message}\n".encode(errors="backslashreplace"))
         elif result is None:
             self.write(b"ok\n")
         else:
-            self.write(f"ok {_json(result)}\n".encode())
+            text = _json(result)
+            if len(text) > MAX_ANSWER:
+                size = f"{len(text) / (1 << 20):.1f} MiB"
+                text = f"error {rpc.INTERNAL_ERROR} the answer is {size}, over the limit: ask for less"
+                self.write(f"{text}\n".encode())
+            else:
+                self.write(f"ok {text}\n".encode())
         self.inflight.release()
 
     def handle_too_long(self) -> None:

@@ -1,0 +1,125 @@
+"""The trust model: which code a scene, a snapshot or a replay may make this process run.
+
+Files from elsewhere are data unless the user says otherwise (``--trust``, or
+:func:`trusting` in Python). Untrusted:
+
+- a scene's plug-ins (``systems: - use: ...``) are a ``.py`` file inside the scene's own
+  folder (no ``..``, no absolute path out of it, no link pointing out), a module of
+  twig_ecs, or a module of an installed plug-in package (the ``twig_ecs.behaviors``
+  entry points);
+- a scene embedded in a replay file, and a snapshot, may name no plug-in files at all -
+  only twig_ecs and installed plug-in packages (and plug-ins this process already loaded
+  from a scene the user ran);
+- replays write only their embedded YAML files, only inside their temporary folder.
+
+Trusted (``--trust``): any file or module a scene names is imported, as before. See
+docs/reliability.md, "Trust".
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+from twig_ecs.errors import TwigError
+
+_TRUSTED: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_trusted", default=False)
+#: Set while loading a scene that came inside a replay (data, not the user's own file).
+_FROM_DATA: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_from_data", default=False)
+HOW_TO_TRUST = "if you trust where it came from, run again with --trust"
+
+
+class UntrustedCode(TwigError):
+    """A file asked to run code that its trust level does not allow."""
+
+
+def is_trusted() -> bool:
+    """Does the user trust the files being loaded now (``--trust``)?"""
+    return _TRUSTED.get()
+
+
+def set_trusted(value: bool) -> None:
+    """Trust (or not) every file this process loads from now on (the CLI's ``--trust``)."""
+    _TRUSTED.set(bool(value))
+
+
+@contextlib.contextmanager
+def trusting(value: bool = True) -> Iterator[None]:
+    """Within the block, files are trusted (``value=True``) or not."""
+    token = _TRUSTED.set(bool(value))
+    try:
+        yield
+    finally:
+        _TRUSTED.reset(token)
+
+
+@contextlib.contextmanager
+def loading_data() -> Iterator[None]:
+    """Within the block, scenes being read came inside a data file (a replay): no plug-in files."""
+    token = _FROM_DATA.set(True)
+    try:
+        yield
+    finally:
+        _FROM_DATA.reset(token)
+
+
+def installed_plugin_packages() -> set[str]:
+    """Top-level package names of installed twig plug-ins (entry points of twig_ecs.behaviors)."""
+    from importlib.metadata import entry_points
+
+    from twig_ecs.behavior import ENTRY_POINT_GROUP
+
+    return {ep.module.split(".")[0] for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def module_allowed(module: str) -> bool:
+    """May an untrusted file make this process import ``module``?"""
+    top = module.split(".")[0]
+    return top == "twig_ecs" or top in installed_plugin_packages()
+
+
+def check_plugin(reference: str, base_dir: str | Path | None) -> None:
+    """Refuse (UntrustedCode, saying why and how) a ``use:`` reference the trust level forbids."""
+    if is_trusted():
+        return
+    module, _, _ = reference.partition(":")
+    if module.endswith(".py"):
+        if _FROM_DATA.get():
+            raise UntrustedCode(
+                f"'{reference}': a scene inside a replay may not run plug-in files; {HOW_TO_TRUST}"
+            )
+        if base_dir is None:
+            raise UntrustedCode(f"'{reference}': a plug-in file needs a scene folder; {HOW_TO_TRUST}")
+        folder = Path(base_dir).resolve()
+        path = Path(module)
+        resolved = (folder / path).resolve() if not path.is_absolute() else path.resolve()
+        if not resolved.is_relative_to(folder):
+            raise UntrustedCode(
+                f"'{reference}': plug-in files must be inside the scene's folder ({folder}); "
+                f"this one is {resolved} - move it beside the scene, or {HOW_TO_TRUST[3:]}"
+            )
+        return
+    if not module_allowed(module):
+        raise UntrustedCode(
+            f"'{reference}': '{module}' is neither part of twig_ecs nor an installed twig plug-in "
+            f"(entry point group twig_ecs.behaviors); use a file beside the scene, or {HOW_TO_TRUST[3:]}"
+        )
+
+
+def check_snapshot_plugin(module: str, file: str | None) -> None:
+    """Refuse a plug-in module a snapshot names unless trusted, installed or already loaded here."""
+    if is_trusted() or module_allowed(module):
+        return
+    loaded = sys.modules.get(module)
+    if module.startswith("twig_plugin_") and loaded is not None and file is not None:
+        origin = getattr(loaded, "__file__", None)
+        if origin is not None and Path(origin).resolve() == Path(file).resolve():
+            return  # the scene the user ran loaded it from this very file
+    where = f" (file {file})" if file else ""
+    raise UntrustedCode(
+        f"the snapshot asks to import plug-in module '{module}'{where}; snapshots are data and "
+        f"import only twig_ecs and installed plug-ins - {HOW_TO_TRUST}"
+    )
