@@ -26,6 +26,7 @@ REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to g
 CREEP = 0.3  # m/s of the last steps in, arms going round
 LEAN_IN = 0.22  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
+BACK_OF = 0.2  # m (at 1.75 m tall) behind the held torso node that the hands reach for
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
 
 
@@ -103,10 +104,15 @@ class Hug(Behavior):
             character.walk(toward * 0.5 * CREEP)
         else:
             character.stop()
-        for hand in m["hands"]:
-            character.pose("hug", hand=hand)
         held = m.get("node", "spine")
-        back = other.node(held) + 0.12 * scale * _unit(other.node(held) - character.node("spine"))
+        through = _unit(other.node(held) - character.node("spine"))
+        back = other.node(held) + BACK_OF * scale * through
+        # the hands gripping the torso slide round to its back: each reaches for a
+        # point behind it on its own side (the grip keeps it on the torso's surface)
+        left = np.array([through[2], 0.0, -through[0]])
+        for hand in m["hands"]:
+            side = 1.0 if hand == "left" else -1.0
+            character.reach(tuple(back + left * side * 0.05 * scale), hand=hand)
         for hand in _toy_hands(character, target):
             character.reach(tuple(back), hand=hand)
         character.lean(toward * LEAN_IN * scale)

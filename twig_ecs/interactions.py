@@ -42,6 +42,7 @@ TOUCH_GAP = 0.03  # m: a leg this close to the ball touched it
 HAND_GAP = 0.06  # m: a hand this close to a bar is on it
 BACK_REACH = 0.3  # m: a hand this close to the hugger's spine, beyond it, is on its back
 RELEASE_MEMORY = 1.0  # s after letting go that a dropped thing still counts as held
+DEPTH_EVERY = 6  # steps between samples of a carried thing's depth in its carrier (10 Hz)
 FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) holding hand
 LEGS = (("l_hip", "l_knee"), ("r_hip", "r_knee"), ("l_knee", "l_foot"), ("r_knee", "r_foot"))
 ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
@@ -97,6 +98,7 @@ class InteractionRecorder:
 
     def __init__(self, scene) -> None:
         self.scene = scene
+        self._links_cache: dict[tuple[int, int], list[int]] = {}
         st = scene.state
         self.balls: dict[str, int] = {}  # name -> node row
         self.rides: dict[str, tuple[int, list[int]]] = {}  # name -> (free node row, collidable link rows)
@@ -130,7 +132,12 @@ class InteractionRecorder:
     def _collidable_links(self, body_index: int) -> list[int]:
         lk = self.scene.state.links
         n = lk.count
-        return list(np.flatnonzero((lk.body[:n] == body_index) & ((lk.flags[:n] & LINK_COLLIDE) != 0)))
+        key = (body_index, n)  # rows change only when bodies or joints come or go
+        cached = self._links_cache.get(key)
+        if cached is None:
+            cached = list(np.flatnonzero((lk.body[:n] == body_index) & ((lk.flags[:n] & LINK_COLLIDE) != 0)))
+            self._links_cache[key] = cached
+        return cached
 
     def _characters(self) -> list:
         scene = self.scene
@@ -307,7 +314,8 @@ class InteractionRecorder:
                 figures.holders.add(me.name)
                 thing = scene.entity(name)
                 figures.max_link_error = max(figures.max_link_error, self._link_error(thing.body.index))
-                figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index))
+                if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
+                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index))
 
     def _anchored(self, name: str) -> bool:
         """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""
