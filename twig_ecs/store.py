@@ -408,17 +408,10 @@ class PhysicsState:
             if not live:
                 continue
             for holder, held in ((ba, bb), (bb, ba)):
-                # a fixed thing held on to (a merry-go-round's bar: it has locked nodes)
-                # is not carried: the holder's body still bumps into the rest of it
-                if held not in characters and not self._anchored(held):
+                if held not in characters:
                     for c in np.flatnonzero(col.body[:total] == holder):
                         _ignore(col.ignore, c, held)
         self.version += 1
-
-    def _anchored(self, body: int) -> bool:
-        """Has body ``body`` a locked node (an axle's hub, a post)?"""
-        n = self.nodes
-        return bool(((n.flags[: n.count] & NODE_LOCKED) != 0)[n.body[: n.count] == body].any())
 
     def release_grace(self, a: int, b: int, steps: int) -> None:
         """Keep the arm at node ``a`` and the body of node ``b`` (or the other way round)
