@@ -15,6 +15,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
@@ -32,8 +33,9 @@ def target_point(character, target) -> np.ndarray:
 _FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Each body's ground centre (x, z), squared spread and whether it is WIDE; computed
+def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+    """Each body's ground centre (x, z), squared spread, whether it is WIDE, and, for a
+    static body (every node locked: a fence, a wall), its collidable links; computed
     once per step however many characters steer (kept aside, not in the scene's state)."""
     cached = _FOOTPRINTS.get(scene)
     if cached is not None and cached[0] == scene.frame:
@@ -46,9 +48,29 @@ def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     cz = np.bincount(body, pos[:, 2], n_bodies) / counts
     spread = np.zeros(n_bodies)
     np.maximum.at(spread, body, (pos[:, 0] - cx[body]) ** 2 + (pos[:, 2] - cz[body]) ** 2)
-    result = (cx, cz, spread, np.sqrt(spread) > WIDE)
+    free = np.bincount(body, (state.nodes.flags[: state.nodes.count] & NODE_LOCKED) == 0, n_bodies)
+    static = (free == 0) & (np.sqrt(spread) > WIDE)
+    links = state.links
+    collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
+    walls = {
+        int(b): np.flatnonzero(collide & (links.body[: links.count] == b)) for b in np.flatnonzero(static)
+    }
+    result = (cx, cz, spread, (np.sqrt(spread) > WIDE) & ~static, walls)
     _FOOTPRINTS[scene] = (scene.frame, result)
     return result
+
+
+def _nearest_on_links(state, rows: np.ndarray, here: np.ndarray) -> tuple[np.ndarray, float]:
+    """The point of the links ``rows`` nearest to ``here`` on the ground plane, and its distance."""
+    pos = state.nodes.pos
+    a = pos[state.links.a[rows]] * np.array([1.0, 0.0, 1.0])
+    ab = pos[state.links.b[rows]] * np.array([1.0, 0.0, 1.0]) - a
+    flat = here * np.array([1.0, 0.0, 1.0])
+    t = np.clip(np.einsum("ij,ij->i", flat - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    points = a + t[:, None] * ab
+    d = np.linalg.norm(points - flat, axis=1)
+    k = int(np.argmin(d))
+    return points[k] + np.array([0.0, here[1], 0.0]), float(d[k])
 
 
 def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
@@ -71,7 +93,14 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
     # its nearest node can be a metre from the bar one would walk into, and stepping
     # across a turning deck catches the legs in its bars
-    cx, cz, spread, wide = _footprints(scene)
+    cx, cz, spread, wide, walls = _footprints(scene)
+    # a fence or wall is long and thin: its nearest point, not a disc round its middle
+    for b, rows in walls.items():
+        if b in skip or np.hypot(here[0] - cx[b], here[2] - cz[b]) - np.sqrt(spread[b]) > cutoff:
+            continue
+        point, d = _nearest_on_links(state, rows, here)
+        if d < cutoff:
+            points.append(point)
     for b in np.flatnonzero(wide):
         if b in skip:
             continue
@@ -87,7 +116,7 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     best: dict[int, int] = {}
     for i in near:
         b = int(body[i])
-        if b in skip or wide[b] or pos[i, 1] <= STEP_OVER:
+        if b in skip or wide[b] or b in walls or pos[i, 1] <= STEP_OVER:
             continue
         if b not in best or d2[i] < d2[best[b]]:
             best[b] = int(i)

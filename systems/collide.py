@@ -419,6 +419,8 @@ def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_
     for k in range(n_pairs):
         i = pairs[k, 0]
         j = pairs[k, 1]
+        if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
+            continue  # two fixed things (fence panels meeting at a post) overlap by design
         s, t = closest_segment_params(pos[col_a[i]], pos[col_b[i]], pos[col_a[j]], pos[col_b[j]])
         dx = 0.0
         for q in range(3):

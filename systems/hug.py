@@ -17,6 +17,7 @@ from twig_ecs.character import GRAB_REACH
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
+from twig_ecs.systems import embrace  # noqa: F401  (registers the partner's answer to a hug)
 from twig_ecs.systems.approach import steer_to
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
@@ -24,6 +25,9 @@ WRAP_TIME = 3.0  # s to get both hands round
 REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
 CREEP = 0.3  # m/s of the last steps in, arms going round
 LEAN_IN = 0.22  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
+DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
+BACK_OF = 0.2  # m (at 1.75 m tall) behind the held torso node that the hands reach for
+DOCK = 0.45  # m/s: docking pace - people slow down before they touch
 
 
 @register
@@ -47,8 +51,13 @@ class Hug(Behavior):
         toward = _unit(other.position - character.position)  # on the ground
         if phase == "approach":
             character.pose("hug")
-            if steer_to(character, goal, target, CLOSE * scale + REACH_IN):
+            gap = ground_distance(character.position, other.position)
+            if gap <= CLOSE * scale + REACH_IN:
                 m["phase"], m["since"] = "wrap", character.scene.time
+            elif gap < DOCK_FROM:
+                character.walk(toward * DOCK)  # the last steps in, at docking pace
+            else:
+                steer_to(character, goal, target, DOCK_FROM - 0.1)
             return
         if phase == "wrap":
             now = character.scene.time
@@ -68,6 +77,9 @@ class Hug(Behavior):
             if not hands:
                 self.finish(character, goal, False, "both hands are full")
                 return
+            # a hand holding a small thing (a doll) goes round too, holding it
+            for hand in _toy_hands(character, target):
+                character.reach(tuple(back), hand=hand)
             for hand in hands:
                 if character.holding.get(hand) == target:
                     continue
@@ -92,8 +104,17 @@ class Hug(Behavior):
             character.walk(toward * 0.5 * CREEP)
         else:
             character.stop()
+        held = m.get("node", "spine")
+        through = _unit(other.node(held) - character.node("spine"))
+        back = other.node(held) + BACK_OF * scale * through
+        # the hands gripping the torso slide round to its back: each reaches for a
+        # point behind it on its own side (the grip keeps it on the torso's surface)
+        left = np.array([through[2], 0.0, -through[0]])
         for hand in m["hands"]:
-            character.pose("hug", hand=hand)
+            side = 1.0 if hand == "left" else -1.0
+            character.reach(tuple(back + left * side * 0.05 * scale), hand=hand)
+        for hand in _toy_hands(character, target):
+            character.reach(tuple(back), hand=hand)
         character.lean(toward * LEAN_IN * scale)
         if character.scene.time - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
@@ -116,6 +137,11 @@ class Hug(Behavior):
                 character.release(hand)
         character.stop()
         character.look_at(None)
+
+
+def _toy_hands(character, target: str) -> list[str]:
+    """The hands holding something other than ``target`` (a doll): they hug holding it."""
+    return [h for h, held in character.holding.items() if held != target]
 
 
 def _within_reach(character, other, hand: str, held: str, late: bool) -> str | None:

@@ -1,12 +1,17 @@
-"""play: run after the toy and kick it about (SPEC 5).
+"""play: run after the toy and kick it about, by contact (SPEC 5).
 
 For each character with a :class:`~twig_ecs.components.Playful`: its activation is its
-joy, damped by its anxiety if it has an attachment. Winning, it runs at the toy round
-obstacles and, once within a stride, kicks it: the toy gets a shove away from the
-child (a ballistic velocity, SPEC 3's node control) and bounces off over the ground.
+joy, damped by its anxiety if it has an attachment. Winning, it picks a place to send
+the toy (inside the yard, if the scene has fences round it: see :func:`yard_of`), runs
+round to the far side of the toy from there, slows as it comes up behind it and swings
+the foot that stands behind the toy through it on a ballistic arc
+(:func:`twig_ecs.systems.kick.launch_kick`). The toy moves only because the leg's
+capsules hit it; a kick that misses leaves it lying, and the child lines up again.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import esper
 import numpy as np
@@ -14,23 +19,68 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Attachment, Playful
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.approach import obstacles_near
+from twig_ecs.systems.kick import FEET, foot_busy, launch_kick
 
-KICK_RANGE = 0.55  # m (at 1.75 m tall) from pelvis to toy
-KICK_SPEED = 2.5  # m/s given to the toy
-KICK_EVERY = 1.2  # s between kicks
+BEHIND = 0.6  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks
+LINE_UP = 0.35  # m (at 1.75 m tall): how near that spot it must be to kick
+CREEP = 0.45  # m/s: the least pace of the last steps (the field fades to nothing at the spot)
+RETHINK = 5.0  # s lining up without a kick: send the toy somewhere else
+THROUGH = 0.3  # m (at 1.75 m tall) beyond the toy's centre that the foot's arc ends
+FOOT_SPEED = 5.5  # m/s (at 1.75 m tall) of the swinging foot along the ground
+LIFT = 0.12  # m (at 1.75 m tall) above the toy's centre where the arc ends: the foot rises into it
+SLOW = 0.6  # m/s: the last steps up to the toy
+SETTLE = 0.25  # s after a kick before lining up again
+ROLLING = 1.5  # m/s: a toy rolling faster than this is chased, not kicked
+ARRIVED = 1.2  # m: a toy this near the place it was sent to gets a new one
+YARD_MARGIN = 2.5  # m inside the fence that a kick aims for
+OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
+
+
+@dataclass(slots=True)
+class _Kicker:
+    """One child's game: where it wants the toy to go, and its kick in flight."""
+
+    aim_at: np.ndarray
+    kicked_at: float = -1e9
+    chosen_at: float = 0.0
+    kick_ends: float = -1e9
+    speed_before: float = 0.0
+    counted: bool = True
+
+
+def yard_of(scene) -> tuple[np.ndarray, np.ndarray] | None:
+    """The (x, z) low and high corners of the fenced yard: the box round every static
+    body wider than 2 m (fences, walls; all nodes locked), or None without fences."""
+    st = scene.state
+    n = st.nodes.count
+    body, flags, pos = st.nodes.body[:n], st.nodes.flags[:n], st.nodes.pos[:n]
+    free = np.bincount(body, (flags & NODE_LOCKED) == 0, st.bodies.count)
+    static = np.flatnonzero(free == 0)
+    points = []
+    for b in static:
+        rows = pos[body == b][:, [0, 2]]
+        if np.ptp(rows, axis=0).max() > 2.0:
+            points.append(rows)
+    if not points:
+        return None
+    every = np.concatenate(points)
+    return every.min(axis=0), every.max(axis=0)
 
 
 @register
 class Play(Behavior):
-    """Chase the toy and kick it."""
+    """Chase the toy and kick it where it wants it to go."""
 
     name = "play"
     component = Playful
 
     def setup(self) -> None:
-        """When each child last kicked."""
-        self.last_kick: dict[int, float] = {}
+        """Each child's game; the yard (looked up once)."""
+        self.game: dict[int, _Kicker] = {}
+        self.yard: tuple[np.ndarray, np.ndarray] | None | bool = False
+        self.home: dict[str, np.ndarray] = {}
 
     def activation(self, character, mind: Mind, goal) -> float:
         """Joy, less the anxiety of an attached child."""
@@ -41,28 +91,105 @@ class Play(Behavior):
         anxiety = attachment.anxiety if attachment is not None else 0.0
         return playful.joy * (1.0 - 0.5 * anxiety)
 
+    def _target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
+        """A new place to send the toy: inside the yard, or near where the toy started."""
+        if self.yard is False:
+            self.yard = yard_of(self.scene)
+        rng = self.scene.rng
+        if self.yard is not None:
+            lo, hi = self.yard
+            lo, hi = lo + YARD_MARGIN, np.maximum(hi - YARD_MARGIN, lo + YARD_MARGIN)
+            x, z = rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])
+        else:
+            home = self.home.setdefault(toy_name, toy_at.copy())
+            angle, r = rng.uniform(0.0, 2.0 * np.pi), OPEN_FIELD * np.sqrt(rng.uniform())
+            x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
+        return np.array([x, 0.0, z])
+
     def act(self, character, mind: Mind, goal, dt: float) -> None:
-        """Run at the toy; kick it when close."""
+        """Line up behind the toy, then swing a foot through it."""
         playful = self.settings(character)
         toy = self.scene.entity(playful.toy)
-        character.look_at(playful.toy)
+        now = self.scene.time
         scale = character.scale
-        where = toy.position
-        if ground_distance(character.position, where) < KICK_RANGE * scale:
-            now = self.scene.time
-            if now - self.last_kick.get(character.entity, -1e9) > KICK_EVERY:
-                self.last_kick[character.entity] = now
-                away = (where - character.position) * np.array([1.0, 0.0, 1.0])
-                away /= max(float(np.linalg.norm(away)), 1e-9)
-                turn = self.scene.rng.normal(0.0, 0.5)  # kicks go roughly, not exactly, ahead
-                c, s = np.cos(turn), np.sin(turn)
-                kick = np.array([c * away[0] + s * away[2], 0.0, -s * away[0] + c * away[2]])
-                toy.set_velocity(tuple(KICK_SPEED * kick + np.array([0.0, 1.0, 0.0])))
+        ball = toy.position
+        game = self.game.get(character.entity)
+        stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
+        if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
+            game = self.game[character.entity] = _Kicker(self._target(playful.toy, ball), chosen_at=now)
+        speed = float(np.linalg.norm(toy.velocity))
+        if not game.counted and now >= game.kick_ends:
+            game.counted = True
+            if speed > game.speed_before + 0.3:  # the foot met it: it went off faster
                 playful.touches += 1
-        params = SteeringParams(speed=playful.speed)
-        obstacles = obstacles_near(character, {playful.toy}, params.cutoff)
-        character.walk(approach_velocity(character.position, where, obstacles, params))
+        character.look_at(playful.toy)
+        if now < game.kick_ends + SETTLE:
+            character.stop()  # the kick is in flight: stand on the other foot
+            return
+        aim = _flat_unit(game.aim_at - ball)
+        left = np.array([aim[2], 0.0, -aim[0]])  # the body's left when facing along the aim
+        foot = self._kicking_foot(character, ball, aim, left)
+        # the pelvis stands behind the toy, shifted sideways so the kicking foot is on
+        # the line through it
+        side = 1.0 if foot == "r_foot" else -1.0
+        spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
+        if self.yard:
+            # a toy by the fence: the spot behind it may be beyond the fence; stand
+            # inside and kick along (or off) the fence instead
+            lo, hi = self.yard
+            inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
+            if np.any(inside != spot[[0, 2]]):
+                spot[[0, 2]] = inside
+                aim = _flat_unit(ball - spot)
+                left = np.array([aim[2], 0.0, -aim[0]])
+        here = character.position
+        behind = float((here - ball) @ aim) < -0.1 * scale
+        exclude = {playful.toy} if behind else set()
+        far = ground_distance(here, spot)
+        params = SteeringParams(speed=playful.speed if far > 1.0 else min(playful.speed, SLOW))
+        obstacles = obstacles_near(character, exclude, params.cutoff)
+        if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
+            walk = approach_velocity(here, spot, obstacles, params)
+            pace = float(np.linalg.norm(walk))
+            if 1e-6 < pace < CREEP:
+                walk *= CREEP / pace
+            character.walk(walk)
+            return
+        self._kick(character, foot, ball, aim, game, speed)
+
+    def _kicking_foot(self, character, ball: np.ndarray, aim: np.ndarray, left: np.ndarray) -> str:
+        """The foot nearer the line through the toy along the aim."""
+        offsets = [abs(float((character.node(f) - ball) @ left)) for f in FEET]
+        return FEET[int(np.argmin(offsets))]
+
+    def _kick(self, character, foot: str, ball: np.ndarray, aim: np.ndarray, game: _Kicker,
+              speed: float) -> None:  # fmt: skip
+        """Swing ``foot`` through the toy towards the aim; the other foot stays planted."""
+        scale = character.scale
+        other = FEET[1 - FEET.index(foot)]
+        start = character.node(foot)
+        if not character.scene.state.nodes.flags[character._row(other)] & NODE_LOCKED:
+            character.stop()  # wait for the standing foot to plant
+            return
+        # the arc ends beyond the toy, on the aim line
+        end = ball + aim * THROUGH * scale
+        # and above its centre: the foot meets it rising, under the centre, and lofts it
+        # (a ball rolling on the ground soon stops)
+        end[1] = ball[1] + LIFT * scale
+        run = ground_distance(start, end)
+        duration = max(0.06, run / (FOOT_SPEED * scale**0.5))
+        character.stop()
+        launch_kick(character, foot, end, duration)
+        now = character.scene.time
+        game.kicked_at, game.kick_ends = now, now + duration
+        game.speed_before, game.counted = speed, False
 
     def stop(self, character, goal) -> None:
         """Stop running."""
         character.stop()
+
+
+def _flat_unit(v: np.ndarray) -> np.ndarray:
+    v = v * np.array([1.0, 0.0, 1.0])
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])

@@ -1,91 +1,173 @@
-"""ride: a child goes to the merry-go-round now and then and pushes it round (SPEC 5).
+"""ride: a child goes to the merry-go-round now and then and runs it round (SPEC 5).
 
 For each character with a :class:`~twig_ecs.components.Rider`: on a whim (``whim``
-per second) it walks to the merry-go-round's rim, puts its hands on the nearest
-handle and shoves it round (a push of ``push`` newtons along the rim) for
-``PUSH_TIME`` seconds, standing at the rim.
+per second) it walks to the merry-go-round's rim by the nearest bar it can get its
+hands on - an overhead handle if its reach is high enough, else the deck's rim, which
+it stoops to - reaches for it with its free hands and takes hold (grab joints); then it
+runs round alongside for ``PUSH_TIME`` seconds, holding on, and lets go. The spin comes
+only from that hold: the running child's arms pull the bar round (no force is applied
+to the merry-go-round by the behaviour).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
+from twig_ecs.character import GRAB_REACH
 from twig_ecs.components import Character, Rider
+from twig_ecs.errors import TwigError
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.systems.approach import obstacles_near
 
-PUSH_TIME = 3.0  # s of pushing
+PUSH_TIME = 3.0  # s of running round holding on
 WANT = 0.65  # activation while it wants a spin: above play
 GIVE_UP = 12.0  # s to get there
+TAKE_TIME = 2.5  # s to get a hand on the bar once there
+RUN = 2.4  # m/s (at 1.75 m tall) running round alongside
+OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands and runs
+ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
+
+
+@dataclass(slots=True)
+class _Spin:
+    """One child's go at the merry-go-round."""
+
+    since: float
+    phase: str = "go"  # go -> take -> run
+    bar: str = ""  # the node it holds
+    phase_since: float = 0.0
+    hands: tuple = ()
 
 
 @register
 class Ride(Behavior):
-    """Spin the merry-go-round."""
+    """Spin the merry-go-round by running round holding on to it."""
 
     name = "ride"
     component = Rider
 
     def setup(self) -> None:
-        """Per child: since when it wants a spin, and since when it pushes."""
-        self.since: dict[int, float] = {}
-        self.pushing: dict[int, float] = {}
+        """Per child: its current go (if it wants one)."""
+        self.spin: dict[int, _Spin] = {}
 
     def process(self, dt: float) -> None:
         """Maybe get the urge; then propose."""
         scene = self.scene
         for entity, (_, rider) in esper.get_components(Character, Rider):
-            if entity not in self.since and rider.ride in scene.entity_names:
+            if entity not in self.spin and rider.ride in scene.entity_names:
                 if scene.rng.random() < rider.whim * dt:
-                    self.since[entity] = scene.time
+                    self.spin[entity] = _Spin(since=scene.time)
         super().process(dt)
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while the urge lasts."""
-        return WANT if character.entity in self.since else 0.0
+        return WANT if character.entity in self.spin else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
-        """Go to the rim, then push the nearest handle round."""
+        """Go to the rim, take hold, run round."""
         rider = self.settings(character)
         ride = self.scene.entity(rider.ride)
+        spin = self.spin[character.entity]
         now = self.scene.time
+        scale = character.scale
         names = ride.node_names
         pos = ride.node_positions
         centre = ride.node("hub") if "hub" in names else pos.mean(axis=0)
-        handles = [k for k, n in enumerate(names) if n.startswith("handle")] or list(range(len(names)))
-        nearest = min(handles, key=lambda k: ground_distance(pos[k], character.position))
-        handle = pos[nearest]
-        out = (handle - centre) * np.array([1.0, 0.0, 1.0])
-        radius = float(np.linalg.norm(out))
-        out /= max(radius, 1e-9)
-        spot = centre + out * (radius + 0.9)  # just outside the rim by the handle
+        rim = max(ground_distance(p, centre) for p in pos)
         character.look_at(rider.ride)
-        start = self.pushing.get(character.entity)
-        if start is None:
-            if ground_distance(character.position, spot) < 0.5:
-                self.pushing[character.entity] = now
+        if spin.phase == "go":
+            spin.bar = self._bar_for(character, ride, centre)
+            bar = ride.node(spin.bar)
+            out = _flat_unit(bar - centre)
+            spot = centre + out * (rim + OUTSIDE * scale)
+            if ground_distance(character.position, spot) < 0.3:
+                spin.phase, spin.phase_since = "take", now
+                spin.hands = tuple(h for h in ("left", "right") if h not in character.holding)
                 rider.spins += 1
-            elif now - self.since[character.entity] > GIVE_UP:
+                if not spin.hands:
+                    self._done(character)
+            elif now - spin.since > GIVE_UP:
                 self._done(character)
             else:
                 obstacles = obstacles_near(character, set(), 1.2)
-                walk = approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6))
-                character.walk(walk)
+                character.walk(
+                    approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6))
+                )
             return
-        tangent = np.cross([0.0, 1.0, 0.0], out)  # round the axle
-        character.reach(tuple(handle), hand="both")
-        ride.apply_force(names[nearest], tuple(rider.push * tangent))
-        character.stop()  # stands at the rim and shoves; the next handle comes round
-        if now - start > PUSH_TIME:
+        bar = ride.node(spin.bar)
+        if spin.phase == "take":
+            # step in until the bar is within an arm's length of the shoulders
+            shoulders = character.node("neck")
+            if ground_distance(shoulders, bar) > 0.6 * ARM * scale:
+                character.walk(_flat_unit(bar - shoulders) * 0.4)
+            else:
+                character.stop()
+            character.stoop(tuple(bar))
+            for hand in spin.hands:
+                if character.holding.get(hand) == rider.ride:
+                    continue
+                character.reach(rider.ride, hand=hand, node=spin.bar)
+                palm = character.node(("l_hand", "r_hand")[hand == "right"])
+                if np.linalg.norm(palm - bar) < GRAB_REACH * scale:
+                    try:
+                        character.grab(rider.ride, hand=hand, node=spin.bar)
+                    except TwigError:
+                        pass
+            if any(character.holding.get(h) == rider.ride for h in spin.hands):
+                spin.phase, spin.phase_since = "run", now
+            elif now - spin.phase_since > TAKE_TIME:
+                self._done(character)
+            return
+        # run round alongside, holding on: along the rim's tangent, steering back to a
+        # circle just outside it
+        out = _flat_unit(character.position - centre)
+        tangent = np.cross([0.0, 1.0, 0.0], out)
+        if float(tangent @ _flat_unit(bar - character.position)) < 0.0:
+            tangent = -tangent  # go the way the held bar is (ahead of the child)
+        off = ground_distance(character.position, centre) - (rim + OUTSIDE * scale)
+        walk = tangent * RUN * scale - out * 1.5 * off
+        speed = float(np.linalg.norm(walk))
+        limit = character.character.max_speed
+        character.walk(walk * min(1.0, limit / max(speed, 1e-9)))
+        if now - spin.phase_since > PUSH_TIME:
             self._done(character)
 
+    def _bar_for(self, character, ride, centre: np.ndarray) -> str:
+        """The node it will hold: the nearest overhead handle if it can reach that high,
+        else the nearest node of the deck's rim."""
+        names = ride.node_names
+        pos = ride.node_positions
+        shoulder = float(character.node("neck")[1])
+        handles = [k for k, n in enumerate(names) if n.startswith("handle")]
+        if not handles or pos[handles[0]][1] > shoulder + 0.75 * ARM * character.scale:
+            handles = [k for k, n in enumerate(names) if n.startswith("rim")] or list(range(len(names)))
+        return names[min(handles, key=lambda k: ground_distance(pos[k], character.position))]
+
     def _done(self, character) -> None:
-        self.since.pop(character.entity, None)
-        self.pushing.pop(character.entity, None)
+        self.spin.pop(character.entity, None)
+        self._let_go(character)
+
+    def _let_go(self, character) -> None:
+        rider = self.settings(character)
+        for hand, held in list(character.holding.items()):
+            if held == rider.ride:
+                character.release(hand)
+        character.stoop(None)
 
     def stop(self, character, goal) -> None:
-        """Let go of the bar, stop."""
+        """Let go of the bar, stop (an interrupted go starts again from walking there)."""
+        self._let_go(character)
+        if character.entity in self.spin:
+            self.spin[character.entity].phase = "go"
         character.stop()
         character.pose("hang")
+
+
+def _flat_unit(v: np.ndarray) -> np.ndarray:
+    v = v * np.array([1.0, 0.0, 1.0])
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])

@@ -25,16 +25,18 @@ def test_five_minutes_of_schoolyard_stay_within_the_soak_limits(capsys):
 
 
 def test_the_soak_stops_at_the_first_limit_crossed_and_names_frame_and_body(capsys):
-    code = main(["run", "schoolyard", "--seconds", "20", "--max-link-error", "0.2"])  # implies --soak
+    code = main(["run", "schoolyard", "--seconds", "20", "--max-link-error", "0.05"])  # implies --soak
     assert code == 1
     out, err = capsys.readouterr()
     assert "soak: max speed" in out
     line = err.strip()
     assert line.startswith("soak failed: frame ")
-    assert "max_link_error" in line and "above the limit 0.2" in line
+    assert "max_link_error" in line and "above the limit 0.05" in line
     frame = int(line.split("frame ")[1].split()[0])
     assert 0 < frame < 1200 and f"{frame} frames" in out  # the run stopped there
-    assert line.endswith("'ragdoll'")  # the carried ragdoll's short forearm stretches most
+    # the carried ragdoll's short links stretch most (held round its middle since issue 15,
+    # it no longer passes 0.2)
+    assert line.endswith("'ragdoll'")
 
 
 def test_a_node_too_fast_is_pinned_on_its_body(scenes):

@@ -2,7 +2,8 @@
 
 :class:`StoryRecorder` watches a scene step by step: time per winning behaviour, hugs,
 ball touches, look-backs, fights, withdrawals, distance from the caregiver, what each
-hand holds, and the peak angular speed of anything that turns on an axle. It can also
+hand holds, the peak angular speed of anything that turns on an axle, and the contact
+figures of :mod:`twig_ecs.interactions` (kicks, pushes, hugs, carried things). It can also
 write a per-step CSV trace and draw distance and anxiety over time with behaviour bands.
 """
 
@@ -17,6 +18,7 @@ import esper
 import numpy as np
 
 from twig_ecs.components import Attachment, Character, Feisty, Memory, Playful, Rider
+from twig_ecs.interactions import InteractionRecorder
 from twig_ecs.scene import Scene
 from twig_ecs.steering import ground_distance
 
@@ -43,6 +45,7 @@ class StoryRecorder:
         scene.on("goal.done", self._goal_done)
         scene.on("behavior.changed", self._changed)
         self.axles = [name for name in scene.entity_names if self._is_axled(name)]
+        self.interactions = InteractionRecorder(scene)
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
@@ -84,6 +87,7 @@ class StoryRecorder:
                 })  # fmt: skip
         for name in self.axles:
             self.peak_spin = max(self.peak_spin, self._spin(name))
+        self.interactions.step()
 
     def _spin(self, name: str) -> float:
         """Angular speed (rad/s) of an axled body about its axle, from one free node."""
@@ -126,7 +130,11 @@ class StoryRecorder:
             if rider is not None:
                 entry["spins"] = rider.spins
             characters[name] = entry
-        return {"characters": characters, "merry_go_round_peak_rad_s": round(self.peak_spin, 3)}
+        return {
+            "characters": characters,
+            "merry_go_round_peak_rad_s": round(self.peak_spin, 3),
+            "interactions": self.interactions.report(),
+        }
 
     def write_trace(self, path: str | Path) -> None:
         """The per-step trace as CSV (one row per character per step)."""

@@ -1,0 +1,139 @@
+"""Contact-true interactions (issue 15): kicks by the leg, pushes by the hands, hugs that
+are answered, a fenced yard. Small scenes, stepped, measured with the interaction
+recorder that ``twig run --report json`` uses."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene
+from twig_ecs.cli import main
+from twig_ecs.interactions import InteractionRecorder
+from twig_ecs.systems.kick import launch_kick
+
+KID = "  - {name: kid, body: humanoid, height: 1.35, position: [0, 0, 0], character: true"
+
+
+def _scene(tmp_path, scenes, text: str, seed: int = 0) -> Scene:
+    path = tmp_path / "scene.yaml"
+    path.write_text("twig: 1\nentities:\n" + text)
+    scene = Scene.load(path, seed=seed)
+    scenes.append(scene)
+    return scene
+
+
+def _run(scene: Scene, seconds: float) -> InteractionRecorder:
+    recorder = InteractionRecorder(scene)
+    scene.step(0)
+    for _ in range(int(round(seconds / scene.dt))):
+        scene.step()
+        recorder.step()
+    return recorder
+
+
+def test_a_playing_child_kicks_the_ball_with_its_leg_and_every_speed_up_follows_a_touch(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + ",\n     behaviors: [{use: play, toy: ball, joy: 0.5, speed: 1.6}]}\n"
+        "  - {name: ball, body: ball, position: [1.0, 0, 2.0], damping: {air: 0.002, ground: 0.012}}\n",
+    )
+    start = scene.entity("ball").position
+    kicks = _run(scene, 30.0).report()["kicks"]["ball"]
+    assert kicks["speed_ups"] >= 3, "it kicks the ball again and again"
+    assert kicks["touched_fraction"] == 1.0, "the ball speeds up only when a leg touches it"
+    assert np.hypot(*(scene.entity("ball").position - start)[[0, 2]]) > 1.0
+    assert scene.entity("kid").character.holding == {}  # (a kick is not a grab)
+
+
+def test_a_kick_that_misses_leaves_the_ball_where_it_lies(tmp_path, scenes):
+    scene = _scene(tmp_path, scenes, KID + "}\n  - {name: ball, body: ball, position: [0, 0, 2]}\n")
+    scene.run(1.0)
+    kid, ball = scene.character_handle(scene.entity("kid").entity), scene.entity("ball")
+    # the ball lies 0.35 m in front of the right foot (the kid faces +z)
+    ahead = kid.node("r_foot") + np.array([0.0, 0.0, 0.35]) - ball.position
+    ball.translate(tuple(ahead * np.array([1.0, 0.0, 1.0])))
+    scene.run(0.5)
+    before = ball.position
+    # the left foot swings forward and out, away from the ball
+    foot = kid.node("l_foot")
+    launch_kick(kid, "l_foot", foot + np.array([0.25, 0.1, 0.45]), 0.15)
+    furthest = foot[2]
+    for _ in range(60):
+        scene.step()
+        furthest = max(furthest, kid.node("l_foot")[2])
+    assert np.linalg.norm(ball.position - before) < 0.01, "no shove at a distance"
+    assert furthest > foot[2] + 0.3, "the foot swung forward"
+    # the right foot swung through it sends it off
+    launch_kick(kid, "r_foot", ball.position + np.array([0.0, 0.05, 0.3]), 0.12)
+    scene.run(0.5)
+    assert ball.position[2] - before[2] > 0.3, "the foot that meets it moves it, forwards"
+
+
+def test_a_fence_panel_stops_a_rolling_ball_and_a_walking_child(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + "}\n"
+        "  - {name: ball, body: ball, position: [2.0, 0, 0], damping: {air: 0.002, ground: 0.012}}\n"
+        "  - {name: fence, body: fence, position: [-1, 0, 3], facing: 0}\n",
+    )  # along x, at z = 3
+    ball, kid = scene.entity("ball"), scene.character_handle(scene.entity("kid").entity)
+    ball.set_velocity((0.0, 0.0, 5.0))
+    kid.walk((0.0, 0.0, 1.0))
+    for _ in range(5 * 60):
+        scene.step()
+        assert ball.position[2] < 3.0 and kid.position[2] < 3.0
+    assert ball.position[2] > 2.5, "it rolled up to the fence and stopped there"
+    assert kid.position[2] > 2.2, "the child walked up to the fence"
+    assert scene.entity("fence").is_locked("a_top")
+    assert not np.isnan(scene.state.nodes.pos[: scene.state.nodes.count]).any()
+
+
+def test_running_round_holding_a_handle_spins_the_merry_go_round(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + ",\n     behaviors: [{use: ride, ride: merry_go_round, whim: 5.0}]}\n"
+        "  - {name: merry_go_round, body: merry_go_round, position: [-3, 0, 3]}\n",
+    )
+    recorder = _run(scene, 12.0)
+    pushes = recorder.report()["pushes"]["merry_go_round"]
+    ride = scene.entity("merry_go_round")
+    rim_speed = max(np.linalg.norm(ride.node_velocity(f"rim{k}")) for k in range(8))
+    assert rim_speed / 1.5 > 0.1, "it turns (rad/s)"
+    assert pushes["spin_up_frames"] >= 10
+    assert pushes["hand_on_fraction"] >= 0.8, "it spins up only while a hand holds a bar"
+
+
+def test_a_child_docks_gently_and_the_hugged_parent_puts_a_hand_on_its_back(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        "  - {name: parent, body: humanoid, position: [0, 0, 0], facing: 90, character: true}\n"
+        "  - {name: child, body: humanoid, height: 1.05, position: [0, 0, 4], facing: 180,\n"
+        "     character: true, pain: {threshold: 0.8}}\n",
+    )
+    child = scene.character_handle(scene.entity("child").entity)
+    goal = child.hug("parent", duration=2.0)
+    recorder = _run(scene, 12.0)
+    assert goal.status == "done"
+    hug = recorder.report()["hugs"]["child->parent"]
+    assert hug["hold_frames"] >= 100
+    assert hug["partner_hand_on_back_fraction"] >= 0.5, "the parent holds the child back"
+    assert hug["max_pain_j"] == 0.0, "a hug never hurts"
+    assert scene.event_counts.get("pain", 0) == 0
+
+
+@pytest.mark.parametrize("seed", [0])
+def test_twig_run_report_json_has_the_interaction_figures(capsys, seed):
+    assert main(["run", "schoolyard", "--seconds", "20", "--seed", str(seed), "--report", "json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    figures = report["interactions"]
+    assert set(figures) >= {"kicks", "pushes", "hugs", "carried", "yard"}
+    assert figures["kicks"]["ball"]["speed_ups"] >= 1
+    assert figures["yard"]["max_outside_m"] == 0.0 and figures["yard"]["escaped"] == []
+    assert figures["carried"]["ragdoll"]["frames"] == report["frames"]

@@ -1,0 +1,395 @@
+"""Contact figures of a run: are the schoolyard's physical interactions true to contact?
+
+:class:`InteractionRecorder` watches a scene step by step and measures what a viewer
+checks when two things meet (BELIEVABILITY.md, "Touch"):
+
+- **kicks**: each time a ball speeds up, the gap between the ball and the nearest leg
+  capsule (thigh or shin) of any character, over this step and the one before (the
+  contact happens inside the step; projection has separated them by its end);
+- **pushes**: each time a turning body (on an axle: the merry-go-round) spins up, the gap
+  between the nearest character's hand and the nearest of its bars;
+- **hugs**: frames in which a hug holds (its ``hold`` phase) with both of the hugger's
+  hands on the partner's back, and with at least one of the partner's hands on the
+  hugger's back (a hand on a back: beyond the torso as seen from the other, within 0.3 m
+  of its nearest torso node), the pain either side felt from the other during the hug goal, and
+  the deepest an arm (upper arm, and forearm short of the hand) sank into the partner;
+- **the yard** (a scene fenced round): how far any free node got beyond the fences'
+  box, and which bodies did;
+- **carried things**: the largest link error of a body a character holds, how deep it
+  sank into its carrier, and pain the holder felt from what it holds or let go of within
+  the last second.
+
+Gaps and depths are surface distances between capsules (segment distance less the two
+radii); a gap below 0 is an overlap.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Character
+from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
+from twig_ecs.systems.collide import closest_segment_params
+
+SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
+SPIN_UP = 0.005  # rad/s gained in one step by a turning body: a push (its bearings only slow it)
+MERGE = 0.15  # s: ball speed-ups closer together than this are one kick
+TOUCH_GAP = 0.03  # m: a leg this close to the ball touched it
+HAND_GAP = 0.06  # m: a hand this close to a bar is on it
+BACK_REACH = 0.3  # m: a hand this close to the hugger's spine, beyond it, is on its back
+RELEASE_MEMORY = 1.0  # s after letting go that a dropped thing still counts as held
+DEPTH_EVERY = 6  # steps between samples of a carried thing's depth in its carrier (10 Hz)
+FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) holding hand
+LEGS = (("l_hip", "l_knee"), ("r_hip", "r_knee"), ("l_knee", "l_foot"), ("r_knee", "r_foot"))
+ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
+        ("l_elbow", "l_hand", FOREARM_SHARE), ("r_elbow", "r_hand", FOREARM_SHARE))  # fmt: skip
+
+
+def segment_gap(p1, q1, r1: float, p2, q2, r2: float) -> float:
+    """Surface distance (m) between capsules p1q1 (radius r1) and p2q2 (r2); < 0 overlaps."""
+    s, t = closest_segment_params(p1, q1, p2, q2)
+    return float(np.linalg.norm((p1 + s * (q1 - p1)) - (p2 + t * (q2 - p2)))) - r1 - r2
+
+
+def point_segment_gaps(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distances from ``point`` to each segment a[k]b[k] (rows), vectorised."""
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+    return np.linalg.norm(a + t[:, None] * ab - point, axis=1)
+
+
+@dataclass(slots=True)
+class _Hug:
+    """Running figures of the hugs between one hugger and one partner."""
+
+    frames: int = 0
+    both_arms: int = 0
+    partner_hand: int = 0
+    max_limb_depth: float = 0.0
+    max_pain: float = 0.0
+
+
+@dataclass(slots=True)
+class _Event:
+    """A speed-up (kick or push): when and the smallest gap seen around it."""
+
+    time: float
+    gap: float
+    by: str = ""
+
+
+@dataclass(slots=True)
+class _Carried:
+    """Running figures of one carried body."""
+
+    frames: int = 0
+    max_link_error: float = 0.0
+    max_depth: float = 0.0
+    pain_to_holder: float = 0.0
+    holders: set = field(default_factory=set)
+
+
+class InteractionRecorder:
+    """Measures kicks, pushes, hugs and carried things of a scene, step by step."""
+
+    def __init__(self, scene) -> None:
+        self.scene = scene
+        self._links_cache: dict[tuple[int, int], list[int]] = {}
+        st = scene.state
+        self.balls: dict[str, int] = {}  # name -> node row
+        self.rides: dict[str, tuple[int, list[int]]] = {}  # name -> (free node row, collidable link rows)
+        for name in scene.entity_names:
+            handle = scene.entity(name)
+            body = handle.body
+            rows = range(body.node_start, body.node_start + len(body.node_names))
+            flags = st.nodes.flags
+            if len(rows) == 1 and flags[rows[0]] & NODE_SPHERE and not flags[rows[0]] & NODE_LOCKED:
+                self.balls[name] = rows[0]
+            free = [i for i in rows if st.nodes.axle_a[i] >= 0 and st.nodes.axle_radius[i] > 0.1]
+            if free:
+                self.rides[name] = (free[0], self._collidable_links(body.index))
+        self.kicks: dict[str, list[_Event]] = {b: [] for b in self.balls}
+        self.pushes: dict[str, list[_Event]] = {r: [] for r in self.rides}
+        self._speed = {b: 0.0 for b in self.balls}
+        self._leg_gap = {b: math.inf for b in self.balls}
+        self._spin = {r: 0.0 for r in self.rides}
+        self._hand_gap = {r: math.inf for r in self.rides}
+        self.hugs: dict[tuple[str, str], _Hug] = {}
+        self.carried: dict[str, _Carried] = {}
+        self._let_go: dict[tuple[str, str], float] = {}  # (holder, thing) -> time released
+        self._held_before: dict[str, set[str]] = {}
+        self.hug_pain_events = 0
+        from twig_ecs.systems.play import yard_of
+
+        self.yard = yard_of(scene)
+        self.outside = 0.0
+        self.escaped: set[str] = set()
+
+    def _collidable_links(self, body_index: int) -> list[int]:
+        lk = self.scene.state.links
+        n = lk.count
+        key = (body_index, n)  # rows change only when bodies or joints come or go
+        cached = self._links_cache.get(key)
+        if cached is None:
+            cached = list(np.flatnonzero((lk.body[:n] == body_index) & ((lk.flags[:n] & LINK_COLLIDE) != 0)))
+            self._links_cache[key] = cached
+        return cached
+
+    def _characters(self) -> list:
+        scene = self.scene
+        scene.activate()
+        return [scene.character_handle(e) for e, _ in esper.get_component(Character)]
+
+    def step(self) -> None:
+        """Measure the state after one step."""
+        scene = self.scene
+        st = scene.state
+        chars = self._characters()
+        pos, prev = st.nodes.pos, st.nodes.prev
+        dt = scene.dt
+        for name, row in self.balls.items():
+            speed = float(np.linalg.norm(pos[row] - prev[row])) / dt
+            gap_now, by = self._nearest_leg(chars, row)
+            gap = min(gap_now, self._leg_gap[name])
+            if speed - self._speed[name] > SPEED_UP:
+                self._add(self.kicks[name], gap, by)
+            self._speed[name], self._leg_gap[name] = speed, gap_now
+        for name, (row, links) in self.rides.items():
+            spin = float(np.linalg.norm(pos[row] - prev[row])) / dt / float(st.nodes.axle_radius[row])
+            gap_now, by = self._nearest_hand(chars, links)
+            gap = min(gap_now, self._hand_gap[name])
+            if spin - self._spin[name] > SPIN_UP:  # every spin-up frame counts: a push lasts seconds
+                self.pushes[name].append(_Event(scene.time, gap, by))
+            self._spin[name], self._hand_gap[name] = spin, gap_now
+        self._measure_hugs(chars)
+        self._measure_carried(chars)
+        if self.yard is not None:
+            self._measure_yard()
+
+    def _measure_yard(self) -> None:
+        """How far beyond the fenced box any free node is (m), and whose it is."""
+        st = self.scene.state
+        n = st.nodes.count
+        lo, hi = self.yard
+        xz = st.nodes.pos[:n][:, [0, 2]]
+        beyond = np.maximum(np.maximum(lo - xz, xz - hi), 0.0).max(axis=1)
+        beyond[(st.nodes.flags[:n] & NODE_LOCKED) != 0] = 0.0
+        worst = float(beyond.max()) if n else 0.0
+        if worst > 0.0:
+            self.outside = max(self.outside, worst)
+            for row in np.flatnonzero(beyond > 0.0):
+                entity = int(st.bodies.entity[int(st.nodes.body[row])])
+                self.escaped.add(self.scene.name_of(entity) or f"node {row}")
+
+    def _add(self, events: list[_Event], gap: float, by: str) -> None:
+        now = self.scene.time
+        if events and now - events[-1].time < MERGE:
+            last = events[-1]
+            last.time = now
+            if gap < last.gap:
+                last.gap, last.by = gap, by
+            return
+        events.append(_Event(now, gap, by))
+
+    def _nearest_leg(self, chars, ball_row: int) -> tuple[float, str]:
+        """Surface gap from the ball to the nearest thigh or shin of any character."""
+        st = self.scene.state
+        centre, radius = st.nodes.pos[ball_row], float(st.nodes.radius[ball_row])
+        best, by = math.inf, ""
+        for me in chars:
+            if float(np.linalg.norm(me.position - centre)) > 2.0 * me.scale + 1.0:
+                continue  # far off: no need to look at its legs
+            a = np.array([me.node(u) for u, _ in LEGS])
+            b = np.array([me.node(v) for _, v in LEGS])
+            radii = np.array([0.07, 0.07, 0.05, 0.05]) * me.scale
+            gap = float((point_segment_gaps(centre, a, b) - radii).min()) - radius
+            if gap < best:
+                best, by = gap, me.name
+        return best, by
+
+    def _nearest_hand(self, chars, links: list[int]) -> tuple[float, str]:
+        """Surface gap from the nearest hand of any character to the nearest collidable bar."""
+        st = self.scene.state
+        lk, pos = st.links, st.nodes.pos
+        a, b = pos[lk.a[links]], pos[lk.b[links]]
+        r = lk.radius[links]
+        best, by = math.inf, ""
+        for me in chars:
+            for hand in ("l_hand", "r_hand"):
+                p = me.node(hand)
+                gap = float((point_segment_gaps(p, a, b) - r).min()) - float(st.nodes.radius[me._row(hand)])
+                if gap < best:
+                    best, by = gap, me.name
+        return best, by
+
+    def _measure_hugs(self, chars) -> None:
+        scene = self.scene
+        pains = [e for e in scene.events if e.kind == "pain"]
+        for me in chars:
+            goal = next((g for g in me.goals if g.behavior == "hug"), None)
+            if goal is None or goal.params["target"] not in scene.entity_names:
+                continue
+            partner = scene.entity(goal.params["target"])
+            figures = self.hugs.setdefault((me.name, partner.name), _Hug())
+            for e in pains:
+                if {e.body, e.source_body} == {me.entity, partner.entity}:
+                    figures.max_pain = max(figures.max_pain, e.energy)
+                    self.hug_pain_events += 1
+            phase = goal.memory.get("phase")
+            if phase not in ("wrap", "hold"):
+                continue
+            figures.max_limb_depth = max(
+                figures.max_limb_depth,
+                self._arm_depth(me, partner),
+                self._arm_depth(partner, me) if hasattr(partner, "holding") else 0.0,
+            )
+            if phase != "hold":
+                continue
+            figures.frames += 1
+            if self._hands_on_back(me, partner) == 2:
+                figures.both_arms += 1
+            if hasattr(partner, "holding") and self._hands_on_back(partner, me) >= 1:
+                figures.partner_hand += 1
+
+    def _arm_depth(self, me, other) -> float:
+        """How deep ``me``'s arms (short of the hands) sink into ``other``'s colliders (m)."""
+        st = self.scene.state
+        lk, pos = st.links, st.nodes.pos
+        links = self._collidable_links(other.body.index)
+        deepest = 0.0
+        for u, v, share in ARMS:
+            p, q = me.node(u), me.node(v)
+            q = p + share * (q - p)
+            r = 0.045 * me.scale if share == 1.0 else 0.04 * me.scale
+            for j in links:
+                gap = segment_gap(p, q, r, pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))
+                deepest = max(deepest, -gap)
+        return deepest
+
+    @staticmethod
+    def _hands_on_back(holder, held) -> int:
+        """How many of ``holder``'s hands are on ``held``'s back: beyond its torso (the
+        pelvis, spine or neck node nearest the hand) as seen from ``holder``'s spine, and
+        within BACK_REACH of that node."""
+        count = 0
+        for hand in ("l_hand", "r_hand"):
+            palm = holder.node(hand)
+            node = min(("pelvis", "spine", "neck"), key=lambda n: float(np.linalg.norm(palm - held.node(n))))
+            centre = held.node(node)
+            through = (centre - holder.node("spine")) * np.array([1.0, 0.0, 1.0])
+            through /= max(float(np.linalg.norm(through)), 1e-9)
+            off = palm - centre
+            if float(np.linalg.norm(off)) <= BACK_REACH and float(off @ through) > 0.0:
+                count += 1
+        return count
+
+    def _measure_carried(self, chars) -> None:
+        scene = self.scene
+        now = scene.time
+        pains = [e for e in scene.events if e.kind == "pain"]
+        for me in chars:
+            held = {n for n in me.holding.values() if n in scene.entity_names}
+            # a carried thing: not a hugged partner, nor a fixed thing held on to (a ride's bar)
+            things = {n for n in held if not hasattr(scene.entity(n), "holding") and not self._anchored(n)}
+            for gone in self._held_before.get(me.name, set()) - things:
+                self._let_go[(me.name, gone)] = now
+            self._held_before[me.name] = things
+            recent = {
+                t for (h, t), when in self._let_go.items() if h == me.name and now - when < RELEASE_MEMORY
+            }
+            for e in pains:
+                if e.body != me.entity:
+                    continue
+                source = scene.name_of(e.source_body)
+                if source in things | recent:
+                    figures = self.carried.setdefault(source, _Carried())
+                    figures.pain_to_holder = max(figures.pain_to_holder, e.energy)
+            for name in things:
+                figures = self.carried.setdefault(name, _Carried())
+                figures.frames += 1
+                figures.holders.add(me.name)
+                thing = scene.entity(name)
+                figures.max_link_error = max(figures.max_link_error, self._link_error(thing.body.index))
+                if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
+                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index))
+
+    def _anchored(self, name: str) -> bool:
+        """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""
+        st = self.scene.state
+        body = self.scene.entity(name).body
+        rows = slice(body.node_start, body.node_start + len(body.node_names))
+        return bool((st.nodes.flags[rows] & NODE_LOCKED).any())
+
+    def _link_error(self, body_index: int) -> float:
+        """Largest relative length error of a body's rigid links (a rope only when stretched)."""
+        lk, pos = self.scene.state.links, self.scene.state.nodes.pos
+        n = lk.count
+        rows = np.flatnonzero((lk.body[:n] == body_index) & ((lk.flags[:n] & (LINK_GRAB | LINK_OFF)) == 0)
+                              & (lk.rest[:n] > 0))  # fmt: skip
+        length = np.linalg.norm(pos[lk.a[rows]] - pos[lk.b[rows]], axis=1)
+        error = (length - lk.rest[rows]) / lk.rest[rows]
+        rope = (lk.flags[rows] & LINK_ROPE) != 0
+        error = np.where(rope, np.maximum(error, 0.0), np.abs(error))
+        return float(error.max()) if len(error) else 0.0
+
+    def _depth(self, body_a: int, body_b: int) -> float:
+        """Deepest overlap (m) between the collidable links of two bodies."""
+        lk, pos = self.scene.state.links, self.scene.state.nodes.pos
+        deepest = 0.0
+        for i in self._collidable_links(body_a):
+            for j in self._collidable_links(body_b):
+                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]),
+                                  pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))  # fmt: skip
+                deepest = max(deepest, -gap)
+        return deepest
+
+    def report(self) -> dict:
+        """The interaction figures, JSON-ready."""
+        out: dict = {}
+        for name, events in self.kicks.items():
+            gaps = [e.gap for e in events]
+            out.setdefault("kicks", {})[name] = {
+                "speed_ups": len(gaps),
+                "touched_fraction": round(sum(g <= TOUCH_GAP for g in gaps) / len(gaps), 3) if gaps else None,
+                "median_gap_m": round(float(np.median(gaps)), 3) if gaps else None,
+                "gaps_m": [round(g, 3) for g in gaps[:200]],
+            }
+        for name, events in self.pushes.items():
+            gaps = [e.gap for e in events]
+            out.setdefault("pushes", {})[name] = {
+                "spin_up_frames": len(gaps),
+                "hand_on_fraction": round(sum(g <= HAND_GAP for g in gaps) / len(gaps), 3) if gaps else None,
+                "median_gap_m": round(float(np.median(gaps)), 3) if gaps else None,
+                "gaps_m": [round(g, 3) for g in gaps[:200]],
+            }
+        hugs = {}
+        for (me, partner), h in self.hugs.items():
+            hugs[f"{me}->{partner}"] = {
+                "hold_frames": h.frames,
+                "both_arms_fraction": round(h.both_arms / h.frames, 3) if h.frames else None,
+                "partner_hand_on_back_fraction": round(h.partner_hand / h.frames, 3) if h.frames else None,
+                "max_pain_j": round(h.max_pain, 3),
+                "max_limb_depth_m": round(h.max_limb_depth, 4),
+            }
+        out["hugs"] = hugs
+        if self.yard is not None:
+            out["yard"] = {
+                "low_xz": [round(float(v), 3) for v in self.yard[0]],
+                "high_xz": [round(float(v), 3) for v in self.yard[1]],
+                "max_outside_m": round(self.outside, 4),
+                "escaped": sorted(self.escaped),
+            }
+        out["carried"] = {
+            name: {
+                "frames": c.frames,
+                "max_link_error": round(c.max_link_error, 4),
+                "max_depth_in_carrier_m": round(c.max_depth, 4),
+                "max_pain_to_holder_j": round(c.pain_to_holder, 3),
+            }
+            for name, c in self.carried.items()
+        }
+        return out
