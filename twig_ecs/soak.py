@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from twig_ecs.store import LINK_GRAB, LINK_OFF
+from twig_ecs.store import LINK_GRAB, LINK_OFF, NODE_LOCKED
 
 
 @dataclass(frozen=True)
@@ -151,9 +151,11 @@ class Health:
         from twig_ecs.systems.collide import closest_segment_params
 
         st = self.scene.state
-        pos, col = st.nodes.pos, st.colliders
+        pos, col, flags = st.nodes.pos, st.colliders, st.nodes.flags
         best, who = -math.inf, (0, 0)
         for i, j in st.pairs[: st.n_pairs]:
+            if flags[col.a[i]] & flags[col.b[i]] & flags[col.a[j]] & flags[col.b[j]] & NODE_LOCKED:
+                continue  # two fixed things (fence panels at a shared post): the solver skips them too
             s, t = closest_segment_params(pos[col.a[i]], pos[col.b[i]], pos[col.a[j]], pos[col.b[j]])
             p = pos[col.a[i]] + s * (pos[col.b[i]] - pos[col.a[i]])
             q = pos[col.a[j]] + t * (pos[col.b[j]] - pos[col.a[j]])
