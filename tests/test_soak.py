@@ -67,6 +67,22 @@ def test_overlapping_bodies_are_named_as_a_pair(scenes):
     assert violation.entity == "bottom / top"
 
 
+def test_fence_panels_meeting_at_a_post_are_not_named_as_the_overlap(scenes):
+    # two panels share a post (they overlap by design and the solver skips such fixed
+    # pairs); the overlap to report is the one between the two ragdolls
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    scene.spawn("fence", name="fence_a", position=(-5.0, 0.0, 3.0))
+    scene.spawn("fence", name="fence_b", position=(0.0, 0.0, 3.0))
+    scene.spawn("ragdoll", name="bottom", position=(0, 0.3, 0))
+    scene.spawn("ragdoll", name="top", position=(0.05, 0.35, 0.0))
+    health = Health(scene, SoakLimits(max_penetration=0.001))
+    scene.step()
+    violation = health.update()
+    assert violation is not None and violation.figure == "max_penetration"
+    assert violation.entity == "bottom / top"
+
+
 def test_nan_is_reported_with_the_body_it_appeared_in(scenes):
     scene = Scene.load("empty")
     scenes.append(scene)
