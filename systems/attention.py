@@ -19,6 +19,7 @@ import numpy as np
 
 from twig_ecs.components import Attachment, Body, Character, Memory, Perception
 from twig_ecs.kernelmath import HEAD
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.system import System
 
 FOCUS_BONUS = 0.15  # salience bonus of the current focus
@@ -40,8 +41,12 @@ class AttentionSystem(System):
         key = (state.version, len(scene._names))  # bodies spawned or removed
         if key == self._key:
             return
-        bodies = state.bodies
-        row_of = {int(bodies.entity[b]): b for b in range(bodies.count)}
+        bodies, nodes = state.bodies, state.nodes
+        # static scenery (a fence: every node locked) is walked round, never looked at; a
+        # yard of fence panels would otherwise cost every perceiver a pass per panel
+        free = np.bincount(nodes.body[: nodes.count], (nodes.flags[: nodes.count] & NODE_LOCKED) == 0,
+                           bodies.count)  # fmt: skip
+        row_of = {int(bodies.entity[b]): b for b in range(bodies.count) if free[b] > 0}
         self._rows = [(name, row_of[scene._names[name]]) for name in scene.entity_names
                       if scene._names[name] in row_of]  # fmt: skip
         self._head_nodes = {}
