@@ -6,6 +6,10 @@ Every test talks to a real server over loopback sockets and waits with bounded t
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+import time
 
 import pytest
 from server_helpers import RawLines, running_server
@@ -261,3 +265,35 @@ def test_an_unauthenticated_client_is_not_told_of_simulation_errors():
         # what the stranger gets first is the answer to its auth, not the notification
         stranger.send(json.dumps(request("auth", 7, token="s3cret")).encode() + b"\n")
         assert json.loads(stranger.line()) == {"jsonrpc": "2.0", "id": 7, "result": {"authenticated": True}}
+
+
+def test_sigterm_stops_a_server_stepping_the_largest_body_it_allows():
+    # item 5: a 100-tall merry-go-round made each step take 3.3 s and SIGTERM waited ~10 s;
+    # now such a body is refused and the largest one allowed still steps cheaply, so the
+    # server, running (not paused), stops on SIGTERM between steps
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "twig_ecs", "serve", "empty", "--port", "0"],
+                            stderr=subprocess.PIPE, text=True, env=env)  # fmt: skip
+    try:
+        line = ""
+        deadline = time.monotonic() + 60
+        while "port" not in line and time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line and proc.poll() is not None:
+                break
+        port = int(line.split(" port ")[1].split()[0])
+        with Client(port=port, timeout=60) as twig:
+            with pytest.raises(RemoteError, match="MAX_EXTENT"):
+                twig.call("spawn", template="merry_go_round", name="tower", height=100.0, position=[0, 0, 0])
+            twig.call("spawn", template="merry_go_round", name="big", height=8.0, position=[0, 0, 0])
+            frame = twig.status()["frame"]
+            while twig.status()["frame"] < frame + 30:  # it goes on stepping with the big body
+                time.sleep(0.05)
+        proc.terminate()
+        assert proc.wait(timeout=20) == 0
+        assert "stopped" in proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+        proc.stderr.close()
