@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import socket
 import threading
 import time
@@ -149,3 +150,21 @@ class RawLines:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def ask(raw: RawLines, payload: bytes | str | dict | list) -> dict | list:
+    """Send one line, return the decoded answer line (notifications skipped)."""
+    if isinstance(payload, dict | list):
+        payload = json.dumps(payload)
+    if isinstance(payload, str):
+        payload = payload.encode()
+    raw.send(payload + b"\n")
+    while True:
+        answer = json.loads(raw.line())
+        if not (isinstance(answer, dict) and "method" in answer):
+            return answer
+
+
+def request(method: str, rid: int = 1, **params) -> dict:
+    """A JSON-RPC 2.0 request object."""
+    return {"jsonrpc": "2.0", "id": rid, "method": method, "params": params}

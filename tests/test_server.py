@@ -11,30 +11,13 @@ import sys
 import time
 
 import pytest
-from server_helpers import RawLines, running_server
+from server_helpers import RawLines, ask, request, running_server
 
 from twig_ecs.cli import main
 from twig_ecs.client import AsyncClient, Client, RemoteError
 from twig_ecs.errors import TwigError
 from twig_ecs.server.cli import check_binding
 from twig_ecs.server.twigline import parse_line
-
-
-def ask(raw: RawLines, payload: bytes | str | dict | list) -> dict | list:
-    """Send one line, return the decoded answer line."""
-    if isinstance(payload, dict | list):
-        payload = json.dumps(payload)
-    if isinstance(payload, str):
-        payload = payload.encode()
-    raw.send(payload + b"\n")
-    while True:
-        answer = json.loads(raw.line())
-        if not (isinstance(answer, dict) and "method" in answer):  # skip notifications
-            return answer
-
-
-def request(method: str, rid: int = 1, **params) -> dict:
-    return {"jsonrpc": "2.0", "id": rid, "method": method, "params": params}
 
 
 def test_a_goal_returns_its_id_at_once_and_ends_with_goal_done():

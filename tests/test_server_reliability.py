@@ -12,29 +12,12 @@ import sys
 import time
 
 import pytest
-from server_helpers import RawLines, running_server
+from server_helpers import RawLines, ask, request, running_server
 
 from twig_ecs.client import Client, RemoteError
 from twig_ecs.scene import Scene
 
 _REAL_STEP = Scene.step
-
-
-def ask(raw: RawLines, payload: bytes | str | dict | list) -> dict | list:
-    """Send one line, return the decoded answer line (notifications skipped)."""
-    if isinstance(payload, dict | list):
-        payload = json.dumps(payload)
-    if isinstance(payload, str):
-        payload = payload.encode()
-    raw.send(payload + b"\n")
-    while True:
-        answer = json.loads(raw.line())
-        if not (isinstance(answer, dict) and "method" in answer):
-            return answer
-
-
-def request(method: str, rid: int = 1, **params) -> dict:
-    return {"jsonrpc": "2.0", "id": rid, "method": method, "params": params}
 
 
 # -- item 1: text that cannot be encoded ---------------------------------------------------------

@@ -55,16 +55,21 @@ def test_a_node_too_fast_is_pinned_on_its_body(scenes):
     assert health.figures()["max_speed_m_s"] >= violation.value
 
 
-def test_overlapping_bodies_are_named_as_a_pair(scenes):
-    scene = Scene.load("empty")
-    scenes.append(scene)
+def _overlap_named_after_dropping_two_ragdolls(scene) -> str:
+    """Drop one ragdoll into another and return the body pair the soak names for the overlap."""
     scene.spawn("ragdoll", name="bottom", position=(0, 0.3, 0))
     scene.spawn("ragdoll", name="top", position=(0.05, 0.35, 0.0))
     health = Health(scene, SoakLimits(max_penetration=0.001))
     scene.step()
     violation = health.update()
     assert violation is not None and violation.figure == "max_penetration"
-    assert violation.entity == "bottom / top"
+    return violation.entity
+
+
+def test_overlapping_bodies_are_named_as_a_pair(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    assert _overlap_named_after_dropping_two_ragdolls(scene) == "bottom / top"
 
 
 def test_fence_panels_meeting_at_a_post_are_not_named_as_the_overlap(scenes):
@@ -74,13 +79,7 @@ def test_fence_panels_meeting_at_a_post_are_not_named_as_the_overlap(scenes):
     scenes.append(scene)
     scene.spawn("fence", name="fence_a", position=(-5.0, 0.0, 3.0))
     scene.spawn("fence", name="fence_b", position=(0.0, 0.0, 3.0))
-    scene.spawn("ragdoll", name="bottom", position=(0, 0.3, 0))
-    scene.spawn("ragdoll", name="top", position=(0.05, 0.35, 0.0))
-    health = Health(scene, SoakLimits(max_penetration=0.001))
-    scene.step()
-    violation = health.update()
-    assert violation is not None and violation.figure == "max_penetration"
-    assert violation.entity == "bottom / top"
+    assert _overlap_named_after_dropping_two_ragdolls(scene) == "bottom / top"
 
 
 def test_nan_is_reported_with_the_body_it_appeared_in(scenes):
