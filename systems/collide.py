@@ -408,9 +408,9 @@ def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact;
         # a contact pass before each, so that what they undo of a contact is redone
-        resolve_contacts(
-            pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, False, dt
-        )
+        # (bool(False), not False: numba would compile resolve_contacts again for a literal)
+        resolve_contacts(pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by,
+                         bool(False), dt)  # noqa: UP018  # fmt: skip
         project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
         project_links(pos, inv_mass, flags, *cargs[8:13])
     project_limits(pos, prev, inv_mass, flags, *cargs[13:23])  # limits have the last word

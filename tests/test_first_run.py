@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twig_ecs import Scene, kernels
+from twig_ecs import Scene, TwigError, kernels
 from twig_ecs.cli import builtin_scenes, main
 from twig_ecs.graphics.app import Loading, _window_class, load_pyglet_window
 from twig_ecs.graphics.overlay import text_panel
@@ -156,6 +156,119 @@ def test_closing_the_window_while_compiling_stops_the_build():
     assert build.cancelled
 
 
+def test_scene_steps_in_slow_motion_while_the_kernels_compile_then_at_full_speed(monkeypatch):
+    window_class = _window_class(load_pyglet_window(headless=True))
+    from twig_ecs.graphics.app import Viewer
+    from twig_ecs.systems import collide
+
+    build = FakeBuild(polls=6)
+    # as on a first run: the workers cache the kernels only as the build ends
+    monkeypatch.setattr(kernels, "_cached_on_disk", lambda kernel: build.polls <= 1)
+    loading = Loading(build, lambda: Viewer("schoolyard"), "twig - schoolyard", interim=True)
+    window = window_class(None, (480, 270), visible=False, loading=loading)
+    try:
+        window.frame()
+        assert window.viewer is None  # the first frame is the progress panel alone
+        window.frame()
+        assert window.viewer is not None and window.loading is not None  # the scene, the build still on
+        assert not kernels._ours(collide.solve_collisions)  # stepped as plain Python: nothing compiles here
+        for _ in range(2):
+            window.frame()
+        assert window.viewer.scene.frame >= 1 and build.polls >= 2  # it steps before the build ends
+        assert not kernels._ours(collide.solve_collisions)
+        assert window.viewer.notice is not None  # under the progress panel
+        names = {key for key, *_ in window.viewer.panels((480, 270), 1.0)}
+        assert {"notice", "status"} <= names
+        while window.loading is not None:
+            window.frame()
+        assert kernels._ours(collide.solve_collisions)  # every kernel compiled again
+        assert window.viewer.notice is None and window.full_speed is not None
+        before = window.viewer.scene.frame
+        for _ in range(3):
+            window.frame(elapsed=1 / 60)
+        assert window.viewer.scene.frame >= before + 2
+    finally:
+        window.close()
+    assert kernels._ours(collide.solve_collisions) and not build.cancelled
+
+
+def test_closing_the_window_during_slow_motion_restores_the_kernels(monkeypatch):
+    window_class = _window_class(load_pyglet_window(headless=True))
+    from twig_ecs.graphics.app import Viewer
+    from twig_ecs.systems import constrain
+
+    monkeypatch.setattr(kernels, "_cached_on_disk", lambda kernel: False)  # none compiled yet
+    build = FakeBuild(polls=100)
+    loading = Loading(build, lambda: Viewer("empty"), "twig - empty", interim=True)
+    window = window_class(None, (160, 90), visible=False, loading=loading)
+    for _ in range(3):
+        window.frame()
+    assert window.viewer is not None and not kernels._ours(constrain.solve_constraints)
+    window.close()
+    assert build.cancelled and kernels._ours(constrain.solve_constraints)
+
+
+def test_a_run_begun_in_plain_python_ends_in_the_same_state_as_a_compiled_one():
+    from numba.core import event
+
+    from twig_ecs.systems import collide
+
+    with Scene.load("schoolyard") as reference:  # compiled (and so cached) the usual way
+        reference.step(45)
+        expected = reference.state_hash()
+    compiles = []
+
+    class Count(event.Listener):
+        def on_start(self, ev) -> None:
+            compiles.append(ev.data["dispatcher"].py_func.__name__)
+
+        def on_end(self, ev) -> None:
+            pass
+
+    interim = kernels.InterimKernels().start()
+    listener = Count()
+    event.register("numba:compile", listener)
+    try:
+        with Scene.load("schoolyard") as scene:
+            scene.step(15)  # every kernel as plain Python
+            assert not kernels._ours(collide.solve_collisions)
+            assert interim.update(every=0.0) >= 10  # the cached ones switch back...
+            scene.step(15)  # ...and load on their first call
+            assert kernels._ours(collide.solve_collisions)
+            interim.finish()
+            scene.step(15)
+            assert scene.state_hash() == expected
+    finally:
+        event.unregister("numba:compile", listener)
+        interim.finish()
+    assert compiles == []  # nothing compiled in this process while the names were swapped
+
+
+def test_each_kernel_compiles_once_on_a_first_run(tmp_path):
+    # a second specialisation is a second compile on every first run: resolve_contacts had one,
+    # for a literal False. Two balls falling onto each other need the physics kernels, the
+    # contact ones included; an empty cache makes this process compile them all.
+    scene = tmp_path / "balls.yaml"
+    scene.write_text("twig: 1\nname: balls\nentities:\n"
+                     "  - {name: a, body: ball, position: [0, 0.3, 0]}\n"
+                     "  - {name: b, body: ball, position: [0.05, 0.6, 0]}\n")  # fmt: skip
+    probe = (
+        "from collections import Counter; from numba.core import event; from twig_ecs import Scene\n"
+        "seen = Counter()\n"
+        "class L(event.Listener):\n"
+        "    def on_start(self, ev): seen[ev.data['dispatcher'].py_func.__qualname__] += 1\n"
+        "    def on_end(self, ev): pass\n"
+        "event.register('numba:compile', L())\n"
+        f"with Scene.load({str(scene)!r}) as s: s.step(20)\n"
+        "print(sorted((k, n) for k, n in seen.items() if '<locals>' not in k))\n"  # not numba's own
+    )
+    result = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
+    assert result.returncode == 0, result.stderr
+    seen = dict(eval(result.stdout))  # noqa: S307 - our own probe's printout
+    assert {"resolve_contacts", "solve_collisions", "relax_once", "integrate_nodes"} <= set(seen)
+    assert {name: n for name, n in seen.items() if n != 1} == {}
+
+
 def test_serve_window_status_line_shows_server_steps_and_wall_clock_fps():
     window_class = _window_class(load_pyglet_window(headless=True))
     from twig_ecs.graphics.app import Viewer
@@ -266,3 +379,35 @@ def test_serve_record_on_a_busy_port_fails_clearly_and_writes_nothing(tmp_path, 
         assert main(["serve", "schoolyard", "--port", str(port), "--record", str(replay)]) == 2
     assert f"port {port}" in capsys.readouterr().err
     assert not replay.exists()
+
+
+# -- the cached start --------------------------------------------------------------------------
+
+
+def _lines(value):
+    """Every line number a parsed document carries, in order."""
+    from twig_ecs.yamldoc import YDict, YList
+
+    if isinstance(value, YDict):
+        return [(value.file, value.line, value.key_lines)] + [_lines(v) for v in value.values()]
+    if isinstance(value, YList):
+        return [(value.file, value.line, value.item_lines)] + [_lines(v) for v in value]
+    return repr(value)
+
+
+def test_built_in_content_reads_the_same_with_the_fast_parser_and_only_it_gets_it(tmp_path):
+    from twig_ecs import library
+    from twig_ecs.yamldoc import parse_yaml
+
+    files = sorted(library.builtin_dir().rglob("*.yaml"))
+    assert len(files) >= 5
+    for path in files:
+        text = path.read_text()
+        fast, slow = parse_yaml(text, str(path), trusted_source=True), parse_yaml(text, str(path))
+        assert fast == slow and _lines(fast) == _lines(slow), path
+    assert library._builtin(files[0])
+    mine = tmp_path / "deep.yaml"  # a user's file: the Python parser, which fails cleanly when deep
+    mine.write_text("twig: 1\nentities: " + "[" * 5000 + "]" * 5000 + "\n")
+    assert not library._builtin(mine)
+    with pytest.raises(TwigError, match="nested"):
+        library.read_document(mine)

@@ -37,6 +37,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
@@ -359,6 +360,152 @@ class KernelBuild:
         for proc in self._procs:
             proc.wait()
         shutil.rmtree(self._claims, ignore_errors=True)
+
+
+# -- stepping while the kernels compile -----------------------------------------------------
+
+
+def _ours(kernel) -> bool:
+    """Is ``kernel`` a numba dispatcher of one of our kernel sources?"""
+    from numba.core.dispatcher import Dispatcher
+
+    if not isinstance(kernel, Dispatcher):
+        return False
+    try:
+        return Path(kernel.py_func.__code__.co_filename).resolve().parent in kernel_dirs()
+    except (AttributeError, OSError):
+        return False
+
+
+def _import_kernel_modules() -> None:
+    """Import every module that defines kernels, so none is imported while names are swapped."""
+    import importlib
+
+    importlib.import_module("twig_ecs.kernelmath")
+    for path in sorted(kernel_dirs()[1].glob("*.py")):
+        if path.stem != "__init__":
+            importlib.import_module(f"twig_ecs.systems.{path.stem}")
+
+
+def _cached_on_disk(kernel) -> bool:
+    """Has this kernel compiled code in the cache, index and data both written?"""
+    cache_file = getattr(getattr(kernel, "_cache", None), "_cache_file", None)
+    if cache_file is None:
+        return False
+    try:
+        overloads = cache_file._load_index()
+    except Exception:  # noqa: BLE001 - a half-written or foreign index: not cached yet
+        return False
+    folder = Path(cache_file._cache_path)
+    return bool(overloads) and all((folder / name).exists() for name in overloads.values())
+
+
+class _FirstCall:
+    """A kernel the workers have just cached, until its first call has loaded it.
+
+    The call runs with every kernel name restored, so that should numba have to compile
+    after all (a signature the workers did not meet) it sees kernels, not Python functions.
+    """
+
+    def __init__(self, interim: InterimKernels, kernel) -> None:
+        self.interim, self.kernel = interim, kernel
+
+    def __call__(self, *args, **kwargs):
+        with self.interim.restored():
+            out = self.kernel(*args, **kwargs)
+        self.interim.point(self.kernel, self.kernel)  # loaded: call it directly from now on
+        return out
+
+
+class InterimKernels:
+    """Lets a scene step while its kernels compile: plain Python until each one is cached.
+
+    A first run's :class:`KernelBuild` takes 10-20 s. Meanwhile every reference to one of
+    our kernels in a loaded ``twig_ecs`` module is pointed at the kernel's Python function
+    (what ``NUMBA_DISABLE_JIT=1`` runs): nothing compiles in this process and the scene
+    steps at once, in slow motion (the schoolyard: about 60 ms a step instead of 2).
+    :meth:`update` points a kernel's references back at the compiled kernel as soon as the
+    workers have cached it, so the scene speeds up as the build goes on; :meth:`finish`
+    restores every reference. Both forms compute the same floats (no fastmath), so a run's
+    state hash does not depend on when each kernel switched.
+    """
+
+    def __init__(self) -> None:
+        _import_kernel_modules()
+        self._refs: dict[int, list[tuple[dict, str]]] = {}  # id(kernel) -> (namespace, name) holding it
+        self._kernels: dict[int, object] = {}
+        for namespace in self._namespaces():
+            for name, value in list(namespace.items()):
+                if _ours(value):
+                    self._refs.setdefault(id(value), []).append((namespace, name))
+                    self._kernels[id(value)] = value
+        self.pending = set(self._kernels)  # kernels still stepped as plain Python
+        self.active = False
+        self._checked = 0.0
+
+    @staticmethod
+    def _namespaces() -> list[dict]:
+        modules = list(sys.modules.items())
+        return [vars(m) for name, m in modules if name.split(".")[0] == "twig_ecs" and hasattr(m, "__dict__")]
+
+    def start(self) -> InterimKernels:
+        """Point every kernel reference at its Python function."""
+        global _checked
+        _checked = True  # nothing compiles in this process: no "compiling" notice
+        self.active = True
+        for key in self.pending:
+            self.point(self._kernels[key], self._kernels[key].py_func)
+        return self
+
+    def point(self, kernel, target) -> None:
+        """Make every reference to ``kernel`` refer to ``target``."""
+        for namespace, name in self._refs.get(id(kernel), ()):
+            namespace[name] = target
+
+    def update(self, every: float = 0.25) -> int:
+        """Switch to compiled kernels the workers have cached since the last look; how many now."""
+        now = time.perf_counter()
+        if not self.active or now - self._checked < every:
+            return 0
+        self._checked = now
+        ready = [key for key in self.pending if _cached_on_disk(self._kernels[key])]
+        for key in ready:
+            self.pending.discard(key)
+            self.point(self._kernels[key], _FirstCall(self, self._kernels[key]))
+        return len(ready)
+
+    @property
+    def interpreted(self) -> int:
+        """How many kernels still run as plain Python."""
+        return len(self.pending) if self.active else 0
+
+    @contextmanager
+    def restored(self):
+        """A context in which every reference is the compiled kernel again."""
+        saved = [(ns, name, ns[name]) for refs in self._refs.values() for ns, name in refs]
+        for kernel in self._kernels.values():
+            self.point(kernel, kernel)
+        try:
+            yield
+        finally:
+            for ns, name, value in saved:
+                ns[name] = value
+
+    def finish(self) -> None:
+        """Restore every kernel reference (the build is over), also in modules imported meanwhile."""
+        if not self.active:
+            return
+        self.active = False
+        for kernel in self._kernels.values():
+            self.point(kernel, kernel)
+        by_func = {id(k.py_func): k for k in self._kernels.values()}
+        for namespace in self._namespaces():
+            for name, value in list(namespace.items()):
+                if isinstance(value, _FirstCall):
+                    namespace[name] = value.kernel
+                elif id(value) in by_func and value is by_func[id(value)].py_func:
+                    namespace[name] = by_func[id(value)]
+        self.pending.clear()
 
 
 def needs_build() -> bool:

@@ -25,6 +25,17 @@ def builtin_dir() -> Path:
     return Path(str(resources.files("twig_ecs.content")))
 
 
+def _builtin(path: Path) -> bool:
+    """Is ``path`` one of the package's own content files?"""
+    global _BUILTIN
+    if _BUILTIN is None:
+        _BUILTIN = builtin_dir().resolve()
+    return Path(path).resolve().is_relative_to(_BUILTIN)
+
+
+_BUILTIN: Path | None = None
+
+
 def read_document(path: Path) -> YDict:
     """Parse a YAML file into a YDict, checking it is a mapping with ``twig: 1``."""
     try:
@@ -33,7 +44,7 @@ def read_document(path: Path) -> YDict:
         raise SceneError(f"cannot read file: {exc.strerror}", str(path)) from None
     except UnicodeDecodeError:
         raise SceneError("not a UTF-8 text file", str(path)) from None
-    doc = parse_yaml(source, str(path))
+    doc = parse_yaml(source, str(path), trusted_source=_builtin(path))
     if not isinstance(doc, YDict):
         raise SceneError(
             "expected a mapping at the top of the file (keys like 'twig: 1')",

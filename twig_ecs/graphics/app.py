@@ -36,6 +36,9 @@ PAN_SPEED = 0.6  # WASD: distances per second
 TURN_SPEED = 90.0  # Q/E: degrees per second
 ORBIT_DEG_PER_PIXEL = 0.3
 LOADING_FRAME_S = 0.05  # while the kernels compile, about 20 progress frames a second
+#: While the kernels compile, the scene steps as plain Python at most once a frame, and the
+#: frame then rests this long: slow motion that leaves most of the cores to the workers.
+INTERIM_REST_S = 0.03
 
 
 class WindowError(TwigError):
@@ -117,6 +120,8 @@ class Viewer:
         self.keys_down: set[int] = set()
         self._status_cache: tuple[str, Image.Image] | None = None
         self._panel_cache: dict[str, tuple[tuple, Image.Image]] = {}
+        #: a panel drawn at the top centre (the kernel compile's progress while it runs), or None
+        self.notice: Image.Image | None = None
 
     # -- clock ------------------------------------------------------------------------
 
@@ -342,6 +347,8 @@ class Viewer:
                 lambda: text_panel(lines, scale, title="inspector", max_width=width - 2 * margin),
             )
             out.append(("inspector", image, margin, margin))
+        if self.notice is not None:
+            out.append(("notice", self.notice, (width - self.notice.size[0]) // 2, margin))
         return out
 
     def _panel(self, key: str, inputs: tuple, make) -> Image.Image:
@@ -383,7 +390,7 @@ def open_window(source: str = "schoolyard", seed: int = 0, content: tuple | list
     window_class = _window_class(window_module)
     if kernels.needs_build():  # a first run: open at once and show the compile's progress
         loading = Loading(kernels.KernelBuild(source, seed, content, parameters), make_viewer,
-                          f"twig - {Path(str(source)).stem}")  # fmt: skip
+                          f"twig - {Path(str(source)).stem}", interim=True)  # fmt: skip
         try:
             return window_class(None, size, visible=visible and not headless, loading=loading)
         except BaseException:
@@ -399,11 +406,47 @@ def open_window(source: str = "schoolyard", seed: int = 0, content: tuple | list
 
 @dataclass
 class Loading:
-    """A window's state while the kernels compile: the build, and how to make the viewer after."""
+    """A window's state while the kernels compile: the build, and how to make the viewer.
+
+    With ``interim`` the viewer is made at the second frame and its scene steps with the
+    kernels' plain-Python forms (:class:`~twig_ecs.kernels.InterimKernels`), each switched to
+    its compiled form once the workers have cached it; without, it is made once the build
+    has finished.
+    """
 
     build: object  # a twig_ecs.kernels.KernelBuild (or anything with poll/status/fraction/cancel)
-    make_viewer: object  # () -> Viewer, called once the build has finished
+    make_viewer: object  # () -> Viewer
     caption: str
+    interim: bool = False
+    #: the kernels' interim state once the scene is made early (a twig_ecs.kernels.InterimKernels)
+    kernels: object = None
+
+    def start_interim(self):
+        """Point the kernels at plain Python and make the viewer: the scene runs before the build ends."""
+        from twig_ecs.kernels import InterimKernels
+
+        self.kernels = InterimKernels().start()
+        try:
+            return self.make_viewer()
+        except BaseException:
+            self.end_interim()
+            raise
+
+    def end_interim(self) -> None:
+        """Every kernel compiled again (the build finished or was cancelled)."""
+        if self.kernels is not None:
+            self.kernels.finish()
+
+    def notice(self, scale: float) -> Image.Image:
+        """The progress panel drawn over a scene already running in slow motion."""
+        key = (self.build.status(), self.build.fraction, scale, "notice")
+        if getattr(self, "_notice", (None,))[0] != key:
+            fraction = self.build.fraction
+            filled = round(24 * fraction)
+            lines = [self.build.status(), f"[{'#' * filled}{'.' * (24 - filled)}] {100 * fraction:3.0f}%",
+                     "slow motion until the kernels are compiled (first run only)"]  # fmt: skip
+            self._notice = (key, text_panel(lines, scale))
+        return self._notice[1]
 
     def panel(self, scale: float) -> Image.Image:
         """The progress panel: what compiles, a bar, and why the wait (made again on a change)."""
@@ -455,8 +498,11 @@ def _window_class(window_module):
             self.renderer = Renderer(self.ctx, samples=0 if software else 4)
             self._last = self._last_draw = time.perf_counter()
             self.closed = False
-            #: perf_counter() when the scene first drew (None while the kernels compile)
+            self._loading_frames = 0
+            #: perf_counter() when the scene first drew (None before it exists)
             self.scene_started: float | None = None if viewer is None else time.perf_counter()
+            #: perf_counter() when the scene first stepped at full speed, every kernel compiled
+            self.full_speed: float | None = self.scene_started
 
         # -- the loop
         def on_draw(self) -> None:
@@ -477,23 +523,51 @@ def _window_class(window_module):
                 print(f"twig play: OpenGL reported {error}", file=sys.stderr)
 
         def _load_step(self) -> bool:
-            """While the kernels compile, draw the progress; True once the scene is ready."""
+            """While the kernels compile, draw the progress; True once the scene runs at full speed."""
             loading = self.loading
             fb_size = self.get_framebuffer_size()
+            scale = fb_size[0] / max(1, self.width)
+            self._loading_frames += 1
             if not loading.build.poll():
-                scale = fb_size[0] / max(1, self.width)
+                if self.viewer is None and loading.interim and self._loading_frames > 1:
+                    self._start_scene(loading.start_interim())  # the progress panel is up: now the scene
+                if self.viewer is not None:
+                    self._interim_frame(loading, fb_size, scale)
+                    return False
                 image = loading.panel(scale)
                 x, y = (fb_size[0] - image.size[0]) // 2, (fb_size[1] - image.size[1]) // 2
                 self.renderer.render_panels(fb_size, (("loading", image, x, y),))
                 self.renderer.present(self.ctx.screen, fb_size)
                 time.sleep(LOADING_FRAME_S)  # leave the cores to the compiling workers
                 return False
-            self.viewer = loading.make_viewer()  # loads the kernels the workers just cached
-            self.viewer.bind_keys(key)
+            loading.end_interim()
             self.loading = None
+            if self.viewer is None:
+                self._start_scene(loading.make_viewer())  # loads the kernels the workers just cached
+            else:
+                self.viewer.notice = None
+                self.viewer.frames = 0  # frames count from full speed, as after a plain wait
+                self._last = time.perf_counter()  # the slow-motion frames' time is not simulated
+            self.full_speed = time.perf_counter()
+            return True
+
+        def _start_scene(self, viewer: Viewer) -> None:
+            self.viewer = viewer
+            self.viewer.bind_keys(key)
             self.set_caption(f"twig - {self.viewer.scene.name}")
             self._last = self._last_draw = self.scene_started = time.perf_counter()  # not simulated time
-            return True
+
+        def _interim_frame(self, loading: Loading, fb_size: tuple[int, int], scale: float) -> None:
+            """One slow-motion frame while the kernels compile: at most one plain-Python step."""
+            loading.kernels.update()
+            now = time.perf_counter()
+            self.viewer.stats.add_frame((now - self._last_draw) * 1000.0)
+            self._last = self._last_draw = now
+            self.viewer.advance(self.viewer.scene.dt)  # one step a frame, however long it takes
+            self.viewer.notice = loading.notice(scale)
+            self.viewer.draw(self.renderer, fb_size, scale)
+            self.renderer.present(self.ctx.screen, fb_size)
+            time.sleep(INTERIM_REST_S)  # leave most of the cores to the compiling workers
 
         def frame(self, elapsed: float | None = None) -> None:
             """Process events and draw one frame by hand (for tests and ``--frames``).
@@ -545,6 +619,7 @@ def _window_class(window_module):
                 self.renderer.release()
                 if self.loading is not None:
                     self.loading.build.cancel()
+                    self.loading.end_interim()
                 if self.viewer is not None:
                     self.viewer.close()
             super().close()
@@ -568,8 +643,9 @@ def play(
     """Open the window and run until it closes (or ``max_frames`` scene frames are drawn).
 
     Returns the scene frames drawn. On a first run the window opens at once and shows the
-    kernels compiling; those frames do not count. With ``max_frames`` a line on stderr says
-    when the first frame and the first scene frame were drawn (seconds since the call).
+    kernels compiling, soon over the scene running in slow motion; those frames do not
+    count. With ``max_frames`` a line on stderr says when the first frame was drawn, when
+    the scene first stepped and when it ran at full speed (seconds since the call).
     """
     start = time.perf_counter()
     window = open_window(source, seed, content, size, camera, paused, headless, screenshot_dir,
@@ -580,7 +656,7 @@ def play(
     limit = max_frames if max_frames is not None else 600
     first = None
     try:
-        while not window.closed and (window.viewer is None or window.viewer.frames < limit):
+        while not window.closed and (window.loading is not None or window.viewer.frames < limit):
             window.frame()
             if first is None:
                 first = time.perf_counter() - start
@@ -590,7 +666,10 @@ def play(
     finally:
         window.close()
     if max_frames is not None:
+        def since(moment: float | None) -> str:
+            return f"{moment - start:.2f} s" if moment else "never"
+
         print(f"twig play: first frame after {first:.2f} s, scene running after "
-              f"{window.scene_started - start if window.scene_started else float('nan'):.2f} s",
+              f"{since(window.scene_started)}, at full speed after {since(window.full_speed)}",
               file=sys.stderr)  # fmt: skip
     return drawn

@@ -1,0 +1,71 @@
+"""Startup time of a ``twig`` command: from launching the process to its first stepped frame.
+
+Runs ``python -m twig_ecs <command...>`` in a fresh process, as a person would, with one hook:
+the first ``Scene.step`` that advances the scene prints the wall-clock time when it returns.
+The figure is that time minus the moment the process was launched, so it counts the
+interpreter's start, every import, loading the scene, any kernel compile or cache load and
+the first step itself. ``--cold`` gives the run an empty kernel cache (a first run).
+
+    python benchmarks/startup.py                       # twig run schoolyard --seconds 1, cached
+    python benchmarks/startup.py --cold                # ... with an empty kernel cache
+    python benchmarks/startup.py --cold -- play schoolyard --headless --frames 60
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+#: The child: mark the end of the first step that advances time, then run the real CLI.
+_CHILD = """
+import sys, time
+from twig_ecs.scene import Scene
+_step = Scene.step
+def step(self, *args, **kw):
+    out = _step(self, *args, **kw)
+    if self.frame > 0 and not getattr(Scene, "_marked", False):
+        Scene._marked = True
+        print(f"FIRST-STEP {time.time():.6f}", file=sys.stderr, flush=True)
+    return out
+Scene.step = step
+from twig_ecs.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def measure(command: list[str], cold: bool = False) -> tuple[float, float, str]:
+    """Seconds from launch to the first stepped frame and to the process's exit, and what
+    ``twig play --frames`` says of its own start (or "")."""
+    env = dict(os.environ)
+    if cold:
+        env["TWIG_CACHE_DIR"] = tempfile.mkdtemp(prefix="twig-startup-")
+    start = time.time()
+    proc = subprocess.run([sys.executable, "-c", _CHILD, *command], env=env, capture_output=True, text=True)
+    end = time.time()
+    marks = [line for line in proc.stderr.splitlines() if line.startswith("FIRST-STEP ")]
+    if proc.returncode or not marks:
+        sys.exit(f"the command failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
+    said = [line for line in proc.stderr.splitlines() if line.startswith("twig play: first frame after")]
+    return float(marks[0].split()[1]) - start, end - start, said[0] if said else ""
+
+
+def main() -> None:
+    """Measure a command's startup a few times and print each figure with the load average."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cold", action="store_true", help="an empty kernel cache each time (first run)")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("command", nargs="*", default=["run", "schoolyard", "--seconds", "1"])
+    args = parser.parse_args()
+    for _ in range(args.repeat):
+        first, total, said = measure(args.command, args.cold)
+        load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+        print(f"{'cold' if args.cold else 'cached'}: first step {first:.2f} s after launch, "
+              f"exit {total:.2f} s  (load average {load:.2f})  {said}")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
