@@ -29,7 +29,7 @@ def step(self, *args, **kw):
     out = _step(self, *args, **kw)
     if self.frame > 0 and not getattr(Scene, "_marked", False):
         Scene._marked = True
-        print(f"FIRST-STEP {time.time():.6f}", file=sys.stderr, flush=True)
+        print(f"FIRST-STEP {time.time():.6f} {time.process_time():.6f}", file=sys.stderr, flush=True)
     return out
 Scene.step = step
 from twig_ecs.cli import main
@@ -37,9 +37,10 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
-def measure(command: list[str], cold: bool = False) -> tuple[float, float, str]:
-    """Seconds from launch to the first stepped frame and to the process's exit, and what
-    ``twig play --frames`` says of its own start (or "")."""
+def measure(command: list[str], cold: bool = False) -> tuple[float, float, float, str]:
+    """Seconds from launch to the first stepped frame, the CPU seconds the process had used by
+    then (less sensitive to a busy machine than the wall clock; kernel-compiling workers not
+    counted), seconds to the process's exit, and what ``twig play --frames`` says of its start."""
     env = dict(os.environ)
     if cold:
         env["TWIG_CACHE_DIR"] = tempfile.mkdtemp(prefix="twig-startup-")
@@ -50,7 +51,8 @@ def measure(command: list[str], cold: bool = False) -> tuple[float, float, str]:
     if proc.returncode or not marks:
         sys.exit(f"the command failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     said = [line for line in proc.stderr.splitlines() if line.startswith("twig play: first frame after")]
-    return float(marks[0].split()[1]) - start, end - start, said[0] if said else ""
+    _, wall, cpu = marks[0].split()
+    return float(wall) - start, float(cpu), end - start, said[0] if said else ""
 
 
 def main() -> None:
@@ -61,9 +63,10 @@ def main() -> None:
     parser.add_argument("command", nargs="*", default=["run", "schoolyard", "--seconds", "1"])
     args = parser.parse_args()
     for _ in range(args.repeat):
-        first, total, said = measure(args.command, args.cold)
+        first, cpu, total, said = measure(args.command, args.cold)
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-        print(f"{'cold' if args.cold else 'cached'}: first step {first:.2f} s after launch, "
+        kind = "cold" if args.cold else "cached"
+        print(f"{kind}: first step {first:.2f} s after launch ({cpu:.2f} s CPU), "
               f"exit {total:.2f} s  (load average {load:.2f})  {said}")  # fmt: skip
 
 

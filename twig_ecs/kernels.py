@@ -444,9 +444,10 @@ class InterimKernels:
         self._checked = 0.0
 
     @staticmethod
-    def _namespaces() -> list[dict]:
-        modules = list(sys.modules.items())
-        return [vars(m) for name, m in modules if name.split(".")[0] == "twig_ecs" and hasattr(m, "__dict__")]
+    def _namespaces(everywhere: bool = False) -> list[dict]:
+        spaces = [(name, getattr(m, "__dict__", None)) for name, m in list(sys.modules.items())]
+        mine = [ns for name, ns in spaces if everywhere or name.split(".")[0] == "twig_ecs"]
+        return [ns for ns in mine if isinstance(ns, dict)]
 
     def start(self) -> InterimKernels:
         """Point every kernel reference at its Python function."""
@@ -499,7 +500,8 @@ class InterimKernels:
         for kernel in self._kernels.values():
             self.point(kernel, kernel)
         by_func = {id(k.py_func): k for k in self._kernels.values()}
-        for namespace in self._namespaces():
+        # every module, not only ours: a plug-in imported meanwhile may hold a Python form
+        for namespace in self._namespaces(everywhere=True):
             for name, value in list(namespace.items()):
                 if isinstance(value, _FirstCall):
                     namespace[name] = value.kernel
