@@ -37,22 +37,35 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
-def measure(command: list[str], cold: bool = False) -> tuple[float, float, float, str]:
-    """Seconds from launch to the first stepped frame, the CPU seconds the process had used by
+def measure(command: list[str], cold: bool = False) -> tuple[float, float, float, float, str]:
+    """Seconds from launch to the first stepped frame; the CPU seconds the process had used by
     then (less sensitive to a busy machine than the wall clock; kernel-compiling workers not
-    counted), seconds to the process's exit, and what ``twig play --frames`` says of its start."""
+    counted); seconds to the process's exit; the CPU seconds of the whole run, workers
+    included; and what ``twig play --frames`` says of its own start."""
     env = dict(os.environ)
     if cold:
         env["TWIG_CACHE_DIR"] = tempfile.mkdtemp(prefix="twig-startup-")
+    before = _children_cpu()
     start = time.time()
     proc = subprocess.run([sys.executable, "-c", _CHILD, *command], env=env, capture_output=True, text=True)
     end = time.time()
+    total_cpu = _children_cpu() - before
     marks = [line for line in proc.stderr.splitlines() if line.startswith("FIRST-STEP ")]
     if proc.returncode or not marks:
         sys.exit(f"the command failed ({proc.returncode}):\n{proc.stderr[-2000:]}")
     said = [line for line in proc.stderr.splitlines() if line.startswith("twig play: first frame after")]
     _, wall, cpu = marks[0].split()
-    return float(wall) - start, float(cpu), end - start, said[0] if said else ""
+    return float(wall) - start, float(cpu), end - start, total_cpu, said[0] if said else ""
+
+
+def _children_cpu() -> float:
+    """User + system CPU seconds of finished child processes (and the children they waited for)."""
+    try:
+        import resource
+    except ImportError:  # not on Windows
+        return float("nan")
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def main() -> None:
@@ -63,11 +76,12 @@ def main() -> None:
     parser.add_argument("command", nargs="*", default=["run", "schoolyard", "--seconds", "1"])
     args = parser.parse_args()
     for _ in range(args.repeat):
-        first, cpu, total, said = measure(args.command, args.cold)
+        first, cpu, total, total_cpu, said = measure(args.command, args.cold)
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
         kind = "cold" if args.cold else "cached"
         print(f"{kind}: first step {first:.2f} s after launch ({cpu:.2f} s CPU), "
-              f"exit {total:.2f} s  (load average {load:.2f})  {said}")  # fmt: skip
+              f"exit {total:.2f} s ({total_cpu:.1f} s CPU in all)  "
+              f"(load average {load:.2f})  {said}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -504,6 +504,8 @@ def _window_class(window_module):
             self.scene_started: float | None = None if viewer is None else time.perf_counter()
             #: perf_counter() when the scene first stepped at full speed, every kernel compiled
             self.full_speed: float | None = self.scene_started
+            #: perf_counter() after the scene's first step (in slow motion or not)
+            self.first_step: float | None = None
 
         # -- the loop
         def on_draw(self) -> None:
@@ -514,7 +516,8 @@ def _window_class(window_module):
             # fps from the wall clock even when frame(elapsed) fakes the simulated time
             self.viewer.stats.add_frame((now - self._last_draw) * 1000.0)
             self._last_draw = now
-            self.viewer.advance(elapsed)
+            if self.viewer.advance(elapsed) and self.first_step is None:
+                self.first_step = time.perf_counter()
             fb_size = self.get_framebuffer_size()
             scale = fb_size[0] / max(1, self.width)  # HiDPI: framebuffer pixels per window unit
             self.viewer.draw(self.renderer, fb_size, scale)
@@ -564,7 +567,8 @@ def _window_class(window_module):
             now = busy = time.perf_counter()
             self.viewer.stats.add_frame((now - self._last_draw) * 1000.0)
             self._last = self._last_draw = now
-            self.viewer.advance(self.viewer.scene.dt)  # one step a frame, however long it takes
+            if self.viewer.advance(self.viewer.scene.dt) and self.first_step is None:  # one step a frame
+                self.first_step = time.perf_counter()
             self.viewer.notice = loading.notice(scale)
             self.viewer.draw(self.renderer, fb_size, scale)
             self.renderer.present(self.ctx.screen, fb_size)
@@ -671,7 +675,7 @@ def play(
         def since(moment: float | None) -> str:
             return f"{moment - start:.2f} s" if moment else "never"
 
-        print(f"twig play: first frame after {first:.2f} s, scene running after "
-              f"{since(window.scene_started)}, at full speed after {since(window.full_speed)}",
+        print(f"twig play: first frame after {first:.2f} s, first step after "
+              f"{since(window.first_step)}, at full speed after {since(window.full_speed)}",
               file=sys.stderr)  # fmt: skip
     return drawn
