@@ -25,7 +25,7 @@ ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave
 # -- the walk's proportions (dynamic similarity, docs/locomotion.md) -------------------
 #: Froude number v^2 / (g L) the gait caps the walk at: a person starts running near 0.5;
 #: beyond 0.2 this point-footed walk loses its rhythm (docs/locomotion.md).
-WALK_FROUDE_MAX = 0.2
+WALK_FROUDE_MAX = 0.5
 #: Step length / leg length = STEP_GAIN * Froude ** STEP_POWER (a person: 0.7-0.8 at 1.2 m/s).
 STEP_GAIN, STEP_POWER = 1.15, 0.3
 #: Longest step period (s) per sqrt(L / g): people shuffle rather than step slower.
