@@ -47,8 +47,9 @@ STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standi
 WALK_HEIGHT = 0.975  # of a planted leg's length: how far its hip rides from its foot at a walk
 GUIDE_REACH = 0.99  # of the leg's length: a swinging foot stays (and lands) this near its hip
 GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (only kept in reach)
-HURRY = 0.99  # of the leg's length: a planted leg this straight behind its hip hurries the swing down
-HURRY_BACK = 0.2  # of the leg's length: ... and its foot this far behind the hip
+HURRY = 0.99  # of the leg's length: a planted leg this straight (its foot behind or to the side)
+# brings the swinging foot down now
+HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far from under the hip
 FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes (4.4 m/s for an adult)
 HURRY_TIME = 0.1  # s: how soon a hurried swing lands
 KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
@@ -56,7 +57,8 @@ GAIT_ARC = 2  # move_gravity of a gait step: an arc under the gait's lighter gra
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
-STRAY = 0.1  # of the leg's length: a foot this far up after its step is over is brought down
+STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
+# (one hanging off to the side of a leaning body, out of the ground's reach, too)
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -196,12 +198,14 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
         lz = hz + oz * flat / off
     elif not aim:
         return  # a kick within reach flies as launched
-    # no faster than a swinging foot goes: a far landing (a hurried step, a sharp turn)
-    # takes longer rather than fling the foot
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     far = math.sqrt((lx - pos[i, 0]) ** 2 + (lz - pos[i, 2]) ** 2)
-    t = max(t, far / (FOOT_SPEED * math.sqrt(g * legs)))
-    move_time[i] = t
+    most_far = FOOT_SPEED * math.sqrt(g * legs) * t
+    if far > most_far:
+        # no faster than a swinging foot goes, and on time: it lands short instead (a
+        # flight stretched to follow a target that keeps moving never lands)
+        lx = pos[i, 0] + (lx - pos[i, 0]) * most_far / far
+        lz = pos[i, 2] + (lz - pos[i, 2]) * most_far / far
     # re-aim: v = (landing - p) / t - g' t / 2 lands on it at t under the arc's gravity
     prev[i, 0] = pos[i, 0] - ((lx - pos[i, 0]) / t - 0.5 * k_arc * gravity[0] * t) * dt
     prev[i, 1] = pos[i, 1] - ((ly - pos[i, 1]) / t - 0.5 * k_arc * gravity[1] * t) * dt
@@ -234,20 +238,18 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
         k_arc = min(1.0, 8.0 * LIFT * legs / (t_fly * t_fly) / g)
         for f in range(2):
             i = nd[L_FOOT + f]
-            if move_gravity[i] == GAIT_ARC and move_time[i] > 0.0 and not flags[i] & NODE_MOVING:
-                # a step knocked off its arc (collide made the foot massive again): the
-                # step is over - the foot falls, plants and the gait steps on from there
-                move_time[i] = 0.0
-            if swinging(flags, move_time, i):
+            if move_time[i] > 0.0 and not flags[i] & NODE_LOCKED:
                 o = nd[L_FOOT + 1 - f]
                 ho = nd[L_HIP + 1 - f]
                 if move_gravity[i] == GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME:
                     # the planted leg nearly straight behind its hip: this step comes down
                     # now (a foot left far behind drags the hip down and back)
-                    back = (pos[o, 0] - pos[ho, 0]) * dx + (pos[o, 2] - pos[ho, 2]) * dz
-                    reach_o = math.sqrt((pos[o, 0] - pos[ho, 0]) ** 2 + (pos[o, 1] - pos[ho, 1]) ** 2
-                                        + (pos[o, 2] - pos[ho, 2]) ** 2)  # fmt: skip
-                    if back < -HURRY_BACK * legs and reach_o > HURRY * legs:
+                    ex = pos[o, 0] - pos[ho, 0]
+                    ez = pos[o, 2] - pos[ho, 2]
+                    reach_o = math.sqrt(ex * ex + ez * ez + (pos[o, 1] - pos[ho, 1]) ** 2)
+                    ahead = max(0.0, ex * dx + ez * dz)  # a leg straight ahead is vaulting, not left behind
+                    away = math.sqrt(max(0.0, ex * ex + ez * ez - ahead * ahead))
+                    if away > HURRY_AWAY * legs and reach_o > HURRY * legs:
                         move_time[i] = HURRY_TIME
                 tx, tz = landing_target(pos, prev, nd, f, o if flags[o] & NODE_LOCKED else -1, dx, dz, moving,
                                         v, step, legs, move_time[i], dt)
@@ -301,6 +303,9 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
                      and pos[i, 1] > radius[i] + STRAY * legs)  # fmt: skip
             if not flags[i] & NODE_LOCKED and not stray:
                 continue  # mid-step
+            o = nd[L_FOOT + 1 - f]
+            if not stray and move_time[o] > 0.0 and not flags[o] & NODE_LOCKED:
+                continue  # the other foot is still in the air (knocked off its arc): no support to step from
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
             ey = pos[i, 1] - pos[h, 1]
