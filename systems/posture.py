@@ -56,6 +56,7 @@ LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
 LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
 WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
+HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
@@ -114,6 +115,17 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
             v, step, _, t_fly = step_timing(v, leg_length[c], g)
             turn = yaw_error(fx, fz, wx / sp, wz / sp)
             v *= TURN_SLOW + (1.0 - TURN_SLOW) * min(1.0, 1.0 + math.cos(turn))  # slower past 90 deg
+            # a planted leg stretched out behind or to the side holds the pelvis back: it waits
+            # for the step rather than run away from its support (a crowd, a sharp turn)
+            for f in range(2):
+                i = nd[L_FOOT + f]
+                if flags[i] & NODE_LOCKED:
+                    h = nd[L_HIP + f]
+                    ex = pos[i, 0] - pos[h, 0]
+                    ez = pos[i, 2] - pos[h, 2]
+                    d = math.sqrt(ex * ex + ez * ez + (pos[i, 1] - pos[h, 1]) ** 2)
+                    if d > HELD * leg_length[c] and ex * wx + ez * wz < 0.0:
+                        v *= max(0.1, (leg_length[c] - d) / ((1.0 - HELD) * leg_length[c]))
             wx *= v / sp
             wz *= v / sp
 
