@@ -1,14 +1,21 @@
-"""gait: stepping (SPEC 3).
+"""gait: stepping (SPEC 3) - the human walk, and the system that runs both gaits.
 
-Reads the character table (walk vector, posture mode, step timers) and foot, hip and
-pelvis nodes; writes foot and hand velocities (through ``prev``), node flags and move
-timers. A planted foot is locked (static friction: it never slides). When a foot has
-fallen far enough from where it belongs - behind its hip while walking, or off from
-under it when standing - and the other foot is planted, it is unlocked and sent on a
-ballistic arc to a point ahead of its hip in the walk direction, landing when the
-pelvis will be there; it locks again when it touches down. One foot steps at a time,
-in alternation, and the opposite hand swings forward with each step. Knees follow
-through the links and their joint limits.
+Reads the character table (walk vector, gait, posture mode, step timers) and foot, hip
+and pelvis nodes; writes foot, knee and hand velocities (through ``prev``), foot
+accelerations (the swing arc's lighter gravity), node flags and move timers. Characters
+whose ``gait`` is "classic" step with :mod:`twig_ecs.systems.gait_classic`; the rest walk
+as below (docs/locomotion.md).
+
+Dynamic similarity: the walk speed is capped at Froude 0.5 and the step length follows
+the Froude number (kernelmath), so the cadence goes with sqrt(g / L). Walking, the feet
+take turns on a clock, one step per period, in the air 80% of it. A planted foot is locked
+(static friction); a step unlocks a foot and sends it on a flat ballistic arc to land
+ahead of where its hip will be. In flight the foot is guided every frame
+(:func:`guide_foot`): re-aimed as the hip moves, its landing kept within the leg's reach,
+its speed bounded, and its next position never beyond the leg's reach - a kinematic foot
+out of reach would drag the hip after it. The knee leads the swing, and the opposite hand
+swings forward with each step. Standing, a foot steps only when it is well off from
+under its hip or the body is pushed.
 """
 
 from __future__ import annotations
