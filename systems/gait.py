@@ -1,14 +1,21 @@
-"""gait: stepping (SPEC 3).
+"""gait: stepping (SPEC 3) - the human walk, and the system that runs both gaits.
 
-Reads the character table (walk vector, posture mode, step timers) and foot, hip and
-pelvis nodes; writes foot and hand velocities (through ``prev``), node flags and move
-timers. A planted foot is locked (static friction: it never slides). When a foot has
-fallen far enough from where it belongs - behind its hip while walking, or off from
-under it when standing - and the other foot is planted, it is unlocked and sent on a
-ballistic arc to a point ahead of its hip in the walk direction, landing when the
-pelvis will be there; it locks again when it touches down. One foot steps at a time,
-in alternation, and the opposite hand swings forward with each step. Knees follow
-through the links and their joint limits.
+Reads the character table (walk vector, gait, posture mode, step timers) and foot, hip
+and pelvis nodes; writes foot, knee and hand velocities (through ``prev``), foot
+accelerations (the swing arc's lighter gravity), node flags and move timers. Characters
+whose ``gait`` is "classic" step with :mod:`twig_ecs.systems.gait_classic`; the rest walk
+as below (docs/locomotion.md).
+
+Dynamic similarity: the walk speed is capped at Froude 0.5 and the step length follows
+the Froude number (kernelmath), so the cadence goes with sqrt(g / L). Walking, the feet
+take turns on a clock, one step per period, in the air 80% of it. A planted foot is locked
+(static friction); a step unlocks a foot and sends it on a flat ballistic arc to land
+ahead of where its hip will be. In flight the foot is guided every frame
+(:func:`guide_foot`): re-aimed as the hip moves, its landing kept within the leg's reach,
+its speed bounded, and its next position never beyond the leg's reach - a kinematic foot
+out of reach would drag the hip after it. The knee leads the swing, and the opposite hand
+swings forward with each step. Standing, a foot steps only when it is well off from
+under its hip or the body is pushed.
 """
 
 from __future__ import annotations
@@ -19,46 +26,246 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
+    HUMAN,
     L_FOOT,
     L_HAND,
     L_HIP,
+    L_KNEE,
     PELVIS,
     R_HAND,
     STAND,
     clamp,
     forward_xz,
+    step_length,
+    walk_speed,
 )
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
+from twig_ecs.systems.gait_classic import control_gait_classic
 
-STEP_TIME = 0.34  # s a step takes at a walk
-RUN_STEP_TIME = 0.24  # s at a run (3 m/s and faster)
-STRIDE = 0.10  # m (at 1.75 m tall): how far behind its hip a foot may fall, at a crawl
-STRIDE_PER_SPEED = 0.12  # m more per m/s of walking speed
-REACH = 0.8  # of the longest step the legs allow at the pelvis's height
+STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
+SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down the rest (~20%)
+LIFT = 0.14  # of the leg's length: the top of a foot's arc above the ground
+LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
+MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
+SKIP = 0.08  # of the leg's length: a walking step this short is not worth taking
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
-STRETCH = 0.95  # a planted leg stretched to this fraction of its length steps at once (walking)
+STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
-STILL_STRETCH = 0.95  # standing: only a leg this straight forces a step (a standing leg is at 0.96)
+WALK_HEIGHT = 0.975  # of a planted leg's length: how far its hip rides from its foot at a walk
+GUIDE_REACH = 0.99  # of the leg's length: a swinging foot stays (and lands) this near its hip
+GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (only kept in reach)
+HURRY = 0.99  # of the leg's length: a planted leg this straight (its foot behind or to the side)
+# brings the swinging foot down now
+HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far from under the hip
+FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes (4.4 m/s for an adult)
+HURRY_TIME = 0.1  # s: how soon a hurried swing lands
+KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
+GAIT_ARC = 2  # move_gravity of a gait step: an arc under the gait's lighter gravity, re-aimed in flight
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
-STRAY = 0.1  # of the leg's length: a foot this far up after its step is over is brought down
+STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
+# (one hanging off to the side of a leaning body, out of the ground's reach, too)
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
+
+
+@njit(cache=True, inline="always")
+def step_timing(speed, leg, g):
+    """(walk speed, step length, step period, time in the air) for a walk of ``speed``.
+
+    Dynamic similarity: the step length over the leg's length follows the Froude number
+    (kernelmath.step_length), so the cadence scales with sqrt(g / L); standing (speed 0),
+    a balance step takes STILL_STEP natural times.
+    """
+    v = walk_speed(speed, leg, g)
+    if v < 0.01:
+        t = STILL_STEP * math.sqrt(leg / g)
+        return 0.0, 0.0, t, t
+    step = step_length(v, leg, g)
+    period = step / v
+    return v, step, period, SWING_SHARE * period
+
+
+@njit(cache=True, inline="always")
+def swinging(flags, move_time, i):
+    """Is foot node ``i`` flying a step's or a kick's arc (kinematic, its move not over)?"""
+    return move_time[i] > 0.0 and flags[i] & NODE_MOVING and not flags[i] & NODE_LOCKED
 
 
 # fmt: off
 @njit(cache=True)
-def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
-                 last_step, steps, arm_mode, scale, leg_length, n_chars, gravity, dt):
-    """Plant, unlock and launch feet for every standing character."""
+def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t_left, dt):
+    """Where a gait step of foot ``f`` should come down (x, z), ``t_left`` s before it lands.
+
+    Ahead of where the hip will be by then (going at the pelvis's actual pace along the
+    walk, at most the walk's pace), LEAD steps on, beside the pelvis half a hip width out
+    along the walk's (or the body's) left, and most of a hip width to the side of the
+    planted foot (``o_planted``) so the shins do not knock.
+    """
+    p = nd[PELVIS]
+    vx = (pos[p, 0] - prev[p, 0]) / dt
+    vz = (pos[p, 2] - prev[p, 2]) / dt
+    if moving:
+        lx, lz = dz, -dx
+    else:
+        fx, fz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
+        lx, lz = fz, -fx
+    half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
+                           + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
+    side = half if f == 0 else -half
+    # lead by the pelvis's actual pace along the walk only: its sideways sway is not
+    # where it is going (and a pelvis running ahead of the walk must not drag the foot on)
+    along = 0.0
+    if moving:
+        along = clamp(vx * dx + vz * dz, 0.0, v) * t_left + min(LEAD * step, MOST_AHEAD * legs)
+    tx = pos[p, 0] + dx * along + side * lx
+    tz = pos[p, 2] + dz * along + side * lz
+    if o_planted >= 0:
+        gap = (tx - pos[o_planted, 0]) * lx + (tz - pos[o_planted, 2]) * lz
+        want = FOOT_GAP * half if side > 0.0 else -FOOT_GAP * half
+        if gap * want < want * want:
+            tx += (want - gap) * lx
+            tz += (want - gap) * lz
+    return tx, tz
+
+
+@njit(cache=True)
+def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, gravity,
+               dt):
+    """In-flight guidance of a swinging foot (a step's or a kick's), once a frame.
+
+    A flying foot is kinematic (NODE_MOVING: infinite mass to the constraints), so a foot
+    beyond its leg's reach would drag the hip after it and fold the body. Each frame:
+    a gait step (move_gravity GAIT_ARC) is re-aimed at ``(tx, tz)`` - where it should
+    land as the hip moves on - under the gait's lighter arc gravity (``k_arc`` g, the
+    rest taken off through ``acc``); any move's landing is pulled in to where the leg
+    reaches from where the hip will be (a kick within reach flies as launched); and the
+    foot's next position is kept within GUIDE_REACH leg lengths of its hip's.
+    ``o`` is the other foot's node when it is planted, else -1.
+    """
+    i = nd[L_FOOT + f]
+    h = nd[L_HIP + f]
+    t = move_time[i]
+    most = GUIDE_REACH * legs
+    aim = move_gravity[i] == GAIT_ARC
+    if aim:
+        for q in range(3):
+            acc[i, q] -= (1.0 - k_arc) * gravity[q]
+    else:
+        k_arc = 1.0
+    if t > GUIDE_STEPS * dt:
+        aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, gravity, dt)
+    if flags[i] & NODE_MOVING:
+        # a kinematic foot is not pulled back by its leg: where it goes next stays within
+        # reach of where its hip goes (moving pos and prev together keeps its speed)
+        ex = 2.0 * pos[i, 0] - prev[i, 0] - (2.0 * pos[h, 0] - prev[h, 0])
+        ey = 2.0 * pos[i, 1] - prev[i, 1] - (2.0 * pos[h, 1] - prev[h, 1])
+        ez = 2.0 * pos[i, 2] - prev[i, 2] - (2.0 * pos[h, 2] - prev[h, 2])
+        d = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if d > most:
+            k = most / d - 1.0
+            for q, e in ((0, ex), (1, ey), (2, ez)):
+                pos[i, q] += k * e
+                prev[i, q] += k * e
+
+
+@njit(cache=True)
+def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, gravity, dt):
+    """Set a flying foot's velocity (through ``prev``) to land in reach (see guide_foot)."""
+    h = nd[L_HIP + f]
+    p = nd[PELVIS]
+    t = move_time[i]
+    most = GUIDE_REACH * legs
+    vx = (pos[i, 0] - prev[i, 0]) / dt
+    vy = (pos[i, 1] - prev[i, 1]) / dt
+    vz = (pos[i, 2] - prev[i, 2]) / dt
+    if aim:
+        lx, ly, lz = tx, radius[i], tz
+    else:  # where it lands if left alone
+        lx = pos[i, 0] + vx * t + 0.5 * k_arc * gravity[0] * t * t
+        ly = pos[i, 1] + vy * t + 0.5 * k_arc * gravity[1] * t * t
+        lz = pos[i, 2] + vz * t + 0.5 * k_arc * gravity[2] * t * t
+    # then: within reach of where the hip will be (going at the pelvis's pace)
+    hx = pos[h, 0] + (pos[p, 0] - prev[p, 0]) / dt * t
+    hz = pos[h, 2] + (pos[p, 2] - prev[p, 2]) / dt * t
+    hh = pos[h, 1] - ly
+    if aim and o >= 0:
+        # the hip then rides the planted leg's arc (systems/posture.py): WALK_HEIGHT leg
+        # lengths from that foot - lower than now if it will have passed over it
+        ho = nd[L_HIP + 1 - f]
+        qx = pos[ho, 0] + (pos[p, 0] - prev[p, 0]) / dt * t - pos[o, 0]
+        qz = pos[ho, 2] + (pos[p, 2] - prev[p, 2]) / dt * t - pos[o, 2]
+        hh = pos[o, 1] - ly + math.sqrt(max(0.0, (WALK_HEIGHT * legs) ** 2 - qx * qx - qz * qz))
+    flat = math.sqrt(max(0.0, most * most - hh * hh))
+    ox = lx - hx
+    oz = lz - hz
+    off = math.sqrt(ox * ox + oz * oz)
+    if off > flat:
+        lx = hx + ox * flat / off
+        lz = hz + oz * flat / off
+    elif not aim:
+        return  # a kick within reach flies as launched
+    g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
+    far = math.sqrt((lx - pos[i, 0]) ** 2 + (lz - pos[i, 2]) ** 2)
+    most_far = FOOT_SPEED * math.sqrt(g * legs) * t
+    if far > most_far:
+        # no faster than a swinging foot goes, and on time: it lands short instead (a
+        # flight stretched to follow a target that keeps moving never lands)
+        lx = pos[i, 0] + (lx - pos[i, 0]) * most_far / far
+        lz = pos[i, 2] + (lz - pos[i, 2]) * most_far / far
+    # re-aim: v = (landing - p) / t - g' t / 2 lands on it at t under the arc's gravity
+    prev[i, 0] = pos[i, 0] - ((lx - pos[i, 0]) / t - 0.5 * k_arc * gravity[0] * t) * dt
+    prev[i, 1] = pos[i, 1] - ((ly - pos[i, 1]) / t - 0.5 * k_arc * gravity[1] * t) * dt
+    prev[i, 2] = pos[i, 2] - ((lz - pos[i, 2]) / t - 0.5 * k_arc * gravity[2] * t) * dt
+
+
+@njit(cache=True)
+def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
+                 last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
+    """Guide, plant, unlock and launch feet for every standing character with the human walk."""
+    g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
+        if gait[c] != HUMAN:
+            continue
         nd = nodes[c]
         for f in range(2):
             swing[c, f] = max(0.0, swing[c, f] - dt)
-        if mode[c] != STAND or flags[nd[PELVIS]] & NODE_LOCKED:
+        if mode[c] != STAND or flags[nd[PELVIS]] & NODE_LOCKED or g < 1e-6:
             continue  # sitting, limp or frozen (a locked pelvis): no stepping
+        legs = leg_length[c]
+        wx = walk[c, 0]
+        wz = walk[c, 2]
+        speed = math.sqrt(wx * wx + wz * wz)
+        v, step, t_step, t_fly = step_timing(speed, legs, g)
+        s = scale[c]
+        moving = v > 0.01
+        dx = wx / speed if moving else 0.0
+        dz = wz / speed if moving else 0.0
+        # a flat arc: a foot in the air falls with a lighter gravity, so the top of its arc
+        # is LIFT leg lengths up whatever the step's time (a full g over a child's step
+        # would be a skip, over an adult's a march)
+        k_arc = min(1.0, 8.0 * LIFT * legs / (t_fly * t_fly) / g)
+        for f in range(2):
+            i = nd[L_FOOT + f]
+            if move_time[i] > 0.0 and not flags[i] & NODE_LOCKED:
+                o = nd[L_FOOT + 1 - f]
+                ho = nd[L_HIP + 1 - f]
+                if move_gravity[i] == GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME:
+                    # the planted leg nearly straight behind its hip: this step comes down
+                    # now (a foot left far behind drags the hip down and back)
+                    ex = pos[o, 0] - pos[ho, 0]
+                    ez = pos[o, 2] - pos[ho, 2]
+                    reach_o = math.sqrt(ex * ex + ez * ez + (pos[o, 1] - pos[ho, 1]) ** 2)
+                    ahead = max(0.0, ex * dx + ez * dz)  # a leg straight ahead is vaulting, not left behind
+                    away = math.sqrt(max(0.0, ex * ex + ez * ez - ahead * ahead))
+                    if away > HURRY_AWAY * legs and reach_o > HURRY * legs:
+                        move_time[i] = HURRY_TIME
+                tx, tz = landing_target(pos, prev, nd, f, o if flags[o] & NODE_LOCKED else -1, dx, dz, moving,
+                                        v, step, legs, move_time[i], dt)
+                guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f,
+                           o if flags[o] & NODE_LOCKED else -1, tx, tz, k_arc, legs, gravity, dt)
         # plant: a foot on the ground that is not mid-step locks in place; a planted
         # foot whose leg is pulled past its length slips (static friction gives way)
         for f in range(2):
@@ -67,7 +274,7 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             if flags[i] & NODE_LOCKED:
                 gap = math.sqrt((pos[i, 0] - pos[h, 0]) ** 2 + (pos[i, 1] - pos[h, 1]) ** 2
                                 + (pos[i, 2] - pos[h, 2]) ** 2)  # fmt: skip
-                if gap > SLIP * leg_length[c]:
+                if gap > SLIP * legs:
                     flags[i] &= ~np.uint32(NODE_LOCKED)
                     for k in range(3):
                         prev[i, k] = pos[i, k]
@@ -75,62 +282,57 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             if flags[i] & NODE_LOCKED and move_time[i] > 0.0:  # landed early
                 move_time[i] = 0.0
                 flags[i] &= ~np.uint32(NODE_MOVING)
+                # the other foot lifts after the double support, not a step period after
+                # this one lifted: a short step must not leave the rear foot down longer
+                swing[c, f] = min(swing[c, f], t_step - t_fly)
             # low down only: a foot pushed up onto someone's hip in a crush must not be
             # nailed there in mid-air (it steps down again instead)
-            low = pos[i, 1] <= radius[i] + LOW_SUPPORT * leg_length[c]
-            if swing[c, f] == 0.0 and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED and low:
+            low = pos[i, 1] <= radius[i] + LOW_SUPPORT * legs
+            flying = swinging(flags, move_time, i)
+            if not flying and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED and low:
                 flags[i] |= NODE_LOCKED
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)
                 for k in range(3):
                     prev[i, k] = pos[i, k]
                     lock_pos[i, k] = pos[i, k]  # held where it stands (not where it last stood)
-        if swing[c, 0] > 0.0 or swing[c, 1] > 0.0:
+        if swinging(flags, move_time, nd[L_FOOT]) or swinging(flags, move_time, nd[L_FOOT + 1]):
             continue  # one foot at a time
-        wx = walk[c, 0]
-        wz = walk[c, 2]
-        speed = math.sqrt(wx * wx + wz * wz)
-        s = scale[c]
-        moving = speed > 0.01
-        dx = wx / speed if moving else 0.0
-        dz = wz / speed if moving else 0.0
-        # the longest step the legs allow: a leg of length L from a hip at height h
-        # reaches sqrt(L^2 - h^2) along the ground
-        hip_h = 0.5 * (pos[nd[L_HIP], 1] + pos[nd[L_HIP + 1], 1]) - radius[nd[L_FOOT]]
-        most = math.sqrt(max(0.0, leg_length[c] ** 2 - hip_h * hip_h))
-        reach = min(REACH * most, s * (STRIDE + STRIDE_PER_SPEED * speed))
-        # shorter legs step faster: a pendulum's period goes with the root of its length
-        t_step = (STEP_TIME + (RUN_STEP_TIME - STEP_TIME) * clamp(speed / 3.0, 0.0, 1.0)) * s**1.0
-        half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
-                               + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
-        # which foot is furthest from where it belongs?
+        # one step per step period, unless a leg is stretched (below)
+        due = swing[c, 0] == 0.0 and swing[c, 1] == 0.0
+        # which foot steps? walking, the other one than last time, once a step period
+        # is over; standing, the one furthest from where it belongs, if any is off
         best = -1
         best_need = 0.0
+        half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
+                               + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
         for f in range(2):
             i = nd[L_FOOT + f]
             h = nd[L_HIP + f]
             # a foot whose step is over but which is neither planted nor flying its arc -
             # knocked off it, or held up on someone in a crush - is brought down first
-            stray = (not flags[i] & NODE_LOCKED and not flags[i] & NODE_MOVING and swing[c, f] == 0.0
-                     and pos[i, 1] > radius[i] + STRAY * leg_length[c])  # fmt: skip
+            stray = (not flags[i] & NODE_LOCKED and not swinging(flags, move_time, i) and swing[c, f] == 0.0
+                     and pos[i, 1] > radius[i] + STRAY * legs)  # fmt: skip
             if not flags[i] & NODE_LOCKED and not stray:
                 continue  # mid-step
+            o = nd[L_FOOT + 1 - f]
+            if not stray and move_time[o] > 0.0 and not flags[o] & NODE_LOCKED:
+                continue  # the other foot is still in the air (knocked off its arc): no support to step from
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
-            # a leg close to straight must step whatever else: a locked foot at the end
-            # of a straight leg would hold the hip back like a rope
             ey = pos[i, 1] - pos[h, 1]
-            # standing still, a leg at standing height is already 0.96 straight: only a
-            # leg pulled really straight (leaning out of the base of support) steps, or a
-            # character pointing or waving would step in place several times a second
-            limit = STRETCH if moving else STILL_STRETCH
-            stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - limit * leg_length[c]
+            # a leg behind its hip close to straight must step whatever else: a locked
+            # foot at the end of a straight leg would hold the hip back like a rope
+            stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * legs
             if moving:
-                need = -(ex * dx + ez * dz) - reach  # how far behind, past the trigger
-                # a foot off to the side (a turn) must step as well
-                side = abs(ex * dz - ez * dx) - STANCE_SLACK * s
-                need = max(need, side)
-            else:
+                if ex * dx + ez * dz > -MOST_AHEAD * legs:
+                    # a straight leg ahead, or not far behind, is the stance leg
+                    # vaulting: the pelvis rides down its arc until the step is due
+                    stretch = -1.0
+                need = legs if f != last_step[c] and due else -1.0
+            elif due:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
+            else:
+                need = -1.0
             need = max(need, stretch)
             # a foot that came down hard by the other one (knocked off its arc) steps
             # away again before the shins rub
@@ -139,60 +341,44 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
                 apart = math.sqrt((pos[i, 0] - pos[o, 0]) ** 2 + (pos[i, 2] - pos[o, 2]) ** 2)
                 need = max(need, FOOT_GAP * half - apart)
             if stray:
-                need = max(need, leg_length[c])  # before anything else
-            alternate = f != last_step[c] and need > 0.5 * best_need  # prefer the other foot
-            if need > 0.0 and (best < 0 or need > best_need or alternate):
+                need = max(need, 2.0 * legs)  # before anything else
+            if need > 0.0 and (best < 0 or need > best_need):
                 best = f
                 best_need = need
         if best < 0:
             continue
-        # launch: land ahead of where the hip will be when the step ends (going at the
-        # pelvis's actual pace), never further than the leg reaches from there
-        # beside the pelvis, half a hip-width out along the walk's (or the body's) left
         i = nd[L_FOOT + best]
-        p = nd[PELVIS]
-        vx = (pos[p, 0] - prev[p, 0]) / dt
-        vz = (pos[p, 2] - prev[p, 2]) / dt
-        if moving:
-            lx, lz = dz, -dx
-        else:
-            fx, fz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
-            lx, lz = fz, -fx
-        side = half if best == 0 else -half
         o = nd[L_FOOT + 1 - best]
-        # lead by the pelvis's actual pace along the walk only: its sideways sway is
-        # not where it is going
-        along = max(0.0, vx * dx + vz * dz) * t_step + reach
-        tx = pos[p, 0] + dx * along + side * lx
-        tz = pos[p, 2] + dz * along + side * lz
-        # land at least most of a hip width to the side of the planted foot: a pelvis
-        # swaying over the stance leg would otherwise set the feet in one line, and
-        # the shins would knock together
-        gap = (tx - pos[o, 0]) * lx + (tz - pos[o, 2]) * lz
-        want = FOOT_GAP * half if side > 0.0 else -FOOT_GAP * half
-        if gap * want < want * want:
-            tx += (want - gap) * lx
-            tz += (want - gap) * lz
-        if (tx - pos[i, 0]) ** 2 + (tz - pos[i, 2]) ** 2 < (0.5 * reach) ** 2:
-            # a step that goes nowhere (twisted feet): step to the walk's side instead,
-            # or the foot would hop on the spot for ever
-            side = half if best == 0 else -half
-            tx = pos[p, 0] + dx * along + side * lx
-            tz = pos[p, 2] + dz * along + side * lz
-        if (not moving and best_need < leg_length[c] and vx * vx + vz * vz < (STILL_PACE * s) ** 2
-                and (tx - pos[i, 0]) ** 2 + (tz - pos[i, 2]) ** 2 < (STILL_SKIP * leg_length[c]) ** 2):
+        tx, tz = landing_target(pos, prev, nd, best, o if flags[o] & NODE_LOCKED else -1, dx, dz, moving, v,
+                                step, legs, t_fly, dt)
+        far = (tx - pos[i, 0]) ** 2 + (tz - pos[i, 2]) ** 2
+        if moving and best_need < legs and far < (SKIP * legs) ** 2:
+            # already about where it would land (walking very slowly, or turning on
+            # the spot): no step; the other foot gets its turn
+            last_step[c] = best
+            continue
+        p = nd[PELVIS]
+        pace = ((pos[p, 0] - prev[p, 0]) ** 2 + (pos[p, 2] - prev[p, 2]) ** 2) / (dt * dt)
+        still = pace < (STILL_PACE * s) ** 2
+        if not moving and best_need < legs and still and far < (STILL_SKIP * legs) ** 2:
             # standing and not pushed about, a step this short would be a fidget: the
             # foot stays planted (a body knocked or dragged still steps to catch itself)
             continue
         ty = radius[i]
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
-        move_time[i] = t_step
-        move_gravity[i] = 1
-        # ballistic: v0 = (target - p)/T - g T / 2 lands on target at T under gravity
-        prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_step - 0.5 * gravity[0] * t_step) * dt
-        prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_step - 0.5 * gravity[1] * t_step) * dt
-        prev[i, 2] = pos[i, 2] - ((tz - pos[i, 2]) / t_step - 0.5 * gravity[2] * t_step) * dt
+        move_time[i] = t_fly
+        move_gravity[i] = GAIT_ARC
+        # ballistic: v0 = (target - p)/T - g' T / 2 lands on target at T under the arc's gravity
+        prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_fly - 0.5 * k_arc * gravity[0] * t_fly) * dt
+        prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_fly - 0.5 * k_arc * gravity[1] * t_fly) * dt
+        prev[i, 2] = pos[i, 2] - ((tz - pos[i, 2]) / t_fly - 0.5 * k_arc * gravity[2] * t_fly) * dt
+        # the knee leads the swing: a straight leg whose foot sets off towards the hip
+        # would push the hip (and the body) ahead like a rod; bent first, it folds
+        kn = nd[L_KNEE + best]
+        for k in range(3):
+            if k != 1:
+                prev[kn, k] -= KNEE_LEAD * ((pos[i, k] - prev[i, k]) - (pos[kn, k] - prev[kn, k]))
         swing[c, best] = t_step
         last_step[c] = best
         steps[c] += 1
@@ -201,13 +387,13 @@ def control_gait(pos, prev, lock_pos, flags, move_time, move_gravity, radius, no
             for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
                 if arm_mode[c, hand - L_HAND] == 0:
                     j = nd[hand]
-                    prev[j, 0] -= sign * ARM_SWING * wx * dt
-                    prev[j, 2] -= sign * ARM_SWING * wz * dt
+                    prev[j, 0] -= sign * ARM_SWING * v * dx * dt
+                    prev[j, 2] -= sign * ARM_SWING * v * dz * dt
 # fmt: on
 
 
 class GaitSystem(System):
-    """Steps the feet of every standing character towards its walk vector."""
+    """Steps the feet of every standing character towards its walk vector (its ``gait``'s kernel)."""
 
     name = "gait"
 
@@ -217,9 +403,13 @@ class GaitSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_gait(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius, ch.nodes,
-                     ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale, ch.leg_length,
-                     ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+        g = self.scene.settings.gravity
+        control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
+                     ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale,
+                     ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
+        control_gait_classic(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
+                             ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode,
+                             ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

@@ -23,6 +23,7 @@ from numba import njit
 
 from twig_ecs.kernelmath import (
     HEAD,
+    HUMAN,
     L_FOOT,
     L_HIP,
     L_KNEE,
@@ -40,9 +41,12 @@ from twig_ecs.kernelmath import (
     STAND,
     clamp,
     forward_xz,
+    walk_speed,
     yaw_error,
 )
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.system import System
+from twig_ecs.systems.gait import LEAD, WALK_HEIGHT, step_timing
 
 HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
@@ -50,7 +54,12 @@ WALK_GAIN = 15.0  # 1/s: pelvis velocity towards the walk vector
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
 YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
 LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
-WALK_SINK = 0.07  # m of pelvis height per m/s of walking (at 1.75 m tall)
+LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
+WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
+WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
+WALK_SINK = 0.07  # m of pelvis height per m/s of walking (at 1.75 m tall), classic gait
+HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
+TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
@@ -65,9 +74,10 @@ UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
 
 # fmt: off
 @njit(cache=True)
-def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, head_dir, stand_height,
-                    crouch, lean, scale, n_chars, gravity, dt):
+def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode, mode_time, walk, seat,
+                    head_dir, stand_height, crouch, lean, scale, leg_length, gait, n_chars, gravity, dt):
     """Add posture accelerations for every character (see the module docstring)."""
+    g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
         if mode[c] == LIMP:
             continue
@@ -95,6 +105,32 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
         wx = walk[c, 0]
         wz = walk[c, 2]
         moving = wx * wx + wz * wz > 1e-4
+        fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
+        step = 0.0
+        t_fly = 1.0
+        target_vy = 0.0
+        human = gait[c] == HUMAN
+        if moving and g > 1e-6 and human:
+            # the gait decides the top speed per body size (kernelmath.walk_speed); the
+            # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
+            sp = math.sqrt(wx * wx + wz * wz)
+            v = walk_speed(sp, leg_length[c], g)
+            v, step, _, t_fly = step_timing(v, leg_length[c], g)
+            turn = yaw_error(fx, fz, wx / sp, wz / sp)
+            v *= TURN_SLOW + (1.0 - TURN_SLOW) * min(1.0, 1.0 + math.cos(turn))  # slower past 90 deg
+            # a planted leg stretched out behind or to the side holds the pelvis back: it waits
+            # for the step rather than run away from its support (a crowd, a sharp turn)
+            for f in range(2):
+                i = nd[L_FOOT + f]
+                if flags[i] & NODE_LOCKED:
+                    h = nd[L_HIP + f]
+                    ex = pos[i, 0] - pos[h, 0]
+                    ez = pos[i, 2] - pos[h, 2]
+                    d = math.sqrt(ex * ex + ez * ez + (pos[i, 1] - pos[h, 1]) ** 2)
+                    if d > HELD * leg_length[c] and ex * wx + ez * wz < 0.0:
+                        v *= max(0.1, (leg_length[c] - d) / ((1.0 - HELD) * leg_length[c]))
+            wx *= v / sp
+            wz *= v / sp
 
         # -- pelvis height and ground position
         if mode[c] == SIT:
@@ -103,16 +139,55 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
             f = min(1.0, mode_time[c] / RISE_TIME)
             target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
         else:
-            # walking, the pelvis sinks a little so the legs can reach further
-            target_y = stand_height[c] - WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
+            target_y = stand_height[c]
+            if not human:
+                # the classic gait: walking, the pelvis sinks a little so the legs reach further
+                target_y -= WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
+            elif step > 0.0:
+                # walking, the hip rides on nearly straight legs (an inverted pendulum):
+                # as high as the planted legs, WALK_HEIGHT of their length, hold it over
+                # their feet - highest when it passes over the foot, lowest with the
+                # feet spread (the bob)
+                reach = WALK_HEIGHT * leg_length[c]
+                top = 1e9
+                top_rate = 0.0
+                for f in range(2):
+                    i = nd[L_FOOT + f]
+                    if flags[i] & NODE_LOCKED:
+                        h = nd[L_HIP + f]
+                        x2 = (pos[h, 0] - pos[i, 0]) ** 2 + (pos[h, 2] - pos[i, 2]) ** 2
+                        rise = math.sqrt(max(1e-6, reach * reach - x2))
+                        if pos[i, 1] + rise < top:
+                            top = pos[i, 1] + rise
+                            # how fast that height changes as the hip moves over the foot:
+                            # fed forward, so the pelvis keeps to the arc rather than lag
+                            # above it (and stretch the trailing leg early)
+                            top_rate = -((pos[h, 0] - pos[i, 0]) * vpx + (pos[h, 2] - pos[i, 2]) * vpz) / rise
+                    elif 0.0 < move_time[i] < LANDING * t_fly:
+                        # coming down: low enough that the foot lands within the leg's
+                        # reach, LEAD steps ahead (else the landing foot drags the hip)
+                        ahead = LEAD * step
+                        landing = radius[i] + math.sqrt(max(0.0, reach * reach - ahead * ahead))
+                        if landing < top:
+                            top = landing
+                            top_rate = 0.0
+                if top < 1e8:
+                    target_y = max(WALK_LOWEST * stand_height[c], top + pos[p, 1] - pos[nd[L_HIP], 1])
+                    target_vy = top_rate
             target_y -= crouch[c]  # stooping to reach something low
-        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * vpy
+        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy)
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
         elif moving and mode[c] == STAND:
             ax = WALK_GAIN * (wx - vpx)
             az = WALK_GAIN * (wz - vpz)
+            # no lurches: a person changes pace at a fraction of g
+            most = WALK_ACC * g
+            a = math.sqrt(ax * ax + az * az)
+            if a > most and human:
+                ax *= most / a
+                az *= most / a
         else:
             ax = BALANCE_GAIN * (feet_x - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (feet_z - pos[p, 2]) - BALANCE_DAMP * vpz
@@ -160,7 +235,6 @@ def control_posture(pos, prev, acc, mass, nodes, mode, mode_time, walk, seat, he
             acc[nd[role], 2] -= uz * m_up / m_low
 
         # -- pelvis yaw to the walk direction (else hold still)
-        fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
         width = math.sqrt((pos[nd[L_HIP], 0] - pos[nd[R_HIP], 0]) ** 2
                           + (pos[nd[L_HIP], 2] - pos[nd[R_HIP], 2]) ** 2) + 1e-9
         omega = (((pos[nd[R_HIP], 0] - prev[nd[R_HIP], 0]) - (pos[nd[L_HIP], 0] - prev[nd[L_HIP], 0])) * fx
@@ -212,6 +286,7 @@ class PostureSystem(System):
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        control_posture(n.pos, n.prev, n.acc, n.mass, ch.nodes, ch.mode, ch.mode_time, ch.walk, ch.seat,
-                        ch.head_dir, ch.stand_height, ch.crouch, ch.lean, ch.scale, ch.count,
-                        self.scene.settings.gravity, dt)  # fmt: skip
+        g = self.scene.settings.gravity
+        control_posture(n.pos, n.prev, n.acc, n.mass, n.radius, n.flags, n.move_time, ch.nodes, ch.mode,
+                        ch.mode_time, ch.walk, ch.seat, ch.head_dir, ch.stand_height, ch.crouch, ch.lean,
+                        ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene, walklab
+from twig_ecs.errors import TwigError
 
 
 def test_walk_lab_measures_a_straight_walk_through_the_public_api():
@@ -52,10 +53,12 @@ def test_walklab_report_and_contact_sheet(tmp_path, monkeypatch):
     assert image.std() > 5.0, "the frames show something"
 
 
-def test_planted_feet_do_not_slide_in_a_turn(scenes):
+@pytest.mark.parametrize("gait", ["classic", "human"])
+def test_planted_feet_do_not_slide_in_a_turn(scenes, gait):
     scene = Scene.load("empty")
     scenes.append(scene)
     person = scene.spawn("humanoid", name="p", height=1.35, character=True)
+    person.gait = gait
     scene.run(0.5)
     person.walk((0.0, 0.0, 1.0))
     scene.run(2.0)
@@ -71,3 +74,91 @@ def test_planted_feet_do_not_slide_in_a_turn(scenes):
             else:
                 held[foot] = None
     assert slide == 0.0
+
+
+# -- the walk's figures (issue 14, "Done when"), measured as `twig walklab` does ------------
+
+
+@pytest.fixture(scope="module")
+def adult_walks():
+    return {v: walklab.measure_walk(1.75, v) for v in (0.8, 1.2, 1.6)}
+
+
+def test_an_adult_walks_1_2_m_s_with_a_persons_cadence_step_and_straight_knees(adult_walks):
+    w = adult_walks[1.2]
+    assert 1.6 <= w["cadence"] <= 2.2, f"{w['cadence']:.2f} steps/s (before: 3.0)"
+    assert 0.55 <= w["step"] <= 0.85, f"{w['step']:.2f} m steps (before: 0.39)"
+    assert w["knee"] <= 35.0, f"median stance knee flexion {w['knee']:.0f} deg (before: 64)"
+    assert w["pelvis"] >= 0.9, "the pelvis rides at walking height"
+    assert 0.1 <= w["double"] <= 0.35, "both feet are down for part of each step"
+    assert w["ahead"] > 0.0, "the foot lands ahead of its hip"
+    assert 1.0 <= w["speed"] <= 1.4, "it walks at about the pace it was asked for"
+
+
+def test_slower_and_faster_adult_walks_scale_in_proportion(adult_walks):
+    slow, normal, fast = (adult_walks[v] for v in (0.8, 1.2, 1.6))
+    assert slow["step"] < normal["step"], "longer steps when walking faster"
+    assert fast["step"] >= 0.5, "a brisk walk keeps long steps (a person: ~0.8 m at 1.6 m/s; here ~0.55)"
+    assert slow["cadence"] < normal["cadence"] < fast["cadence"], "and quicker ones"
+    for w in (slow, fast):
+        assert 1.3 <= w["cadence"] <= 2.6 and w["knee"] <= 40.0 and w["pelvis"] >= 0.9
+
+
+def test_children_step_faster_than_adults_but_not_at_a_scurry():
+    small = walklab.measure_walk(1.05, 1.0)
+    big = walklab.measure_walk(1.35, 1.0)
+    adult = walklab.measure_walk(1.75, 1.0)
+    assert small["cadence"] <= 3.2, f"1.05 m child at 1.0 m/s: {small['cadence']:.2f} steps/s (before: 5.0)"
+    assert small["knee"] <= 40.0 and small["pelvis"] >= 0.9
+    assert adult["cadence"] < big["cadence"] < small["cadence"], "cadence goes with sqrt(g / leg length)"
+    assert small["step"] < big["step"] < adult["step"]
+
+
+@pytest.mark.parametrize("height", walklab.SIZES)
+def test_a_u_turn_at_1_2_m_s_stays_upright(height):
+    assert walklab.measure_uturn(height) <= 30.0
+
+
+def test_the_walk_is_capped_by_body_size_in_the_gait(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    child = scene.spawn("humanoid", name="c", height=1.05, character=True)
+    child.gait = "human"
+    scene.run(0.5)
+    legs = walklab.leg_length(child)
+    child.walk((0.0, 0.0, 3.0))
+    scene.run(2.5)
+    track = walklab.record(child, 3.0)
+    speed = walklab.walk_figures(track)["speed"]
+    assert speed <= 1.15 * (0.5 * 9.81 * legs) ** 0.5, "no faster than a walk's limit, Froude 0.5"
+    assert np.all(walklab.torso_pitch(track) < 35.0), "and upright"
+
+
+def test_a_swinging_foot_stays_within_its_legs_reach_in_sharp_turns(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", height=1.35, character=True)
+    person.gait = "human"
+    scene.run(0.5)
+    legs = walklab.leg_length(person)
+    worst = 0.0
+    for k, heading in enumerate([(0.0, 1.2), (1.2, 0.0), (0.0, -1.2), (-1.0, 0.6)] * 2):
+        person.walk((heading[0], 0.0, heading[1]))
+        for _ in range(40 + 7 * k):
+            scene.step()
+            for side in "lr":
+                reach = np.linalg.norm(person.node(f"{side}_foot") - person.node(f"{side}_hip"))
+                worst = max(worst, float(reach) / legs)
+    assert worst <= 1.02, f"a foot got {worst:.3f} leg lengths from its hip"
+
+
+def test_the_gait_is_chosen_per_character_with_a_clear_error_for_an_unknown_one(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", height=1.75, character=True)
+    assert person.gait == "classic", "the scenes' default until the human walk carries every behaviour"
+    person.gait = "human"
+    assert person.gait == "human"
+    with pytest.raises(TwigError, match="unknown gait 'humane'.*did you mean 'human'"):
+        person.gait = "humane"
+    assert person.gait == "human", "a bad name leaves the gait as it was"

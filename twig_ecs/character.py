@@ -20,7 +20,7 @@ import numpy as np
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.handles import BodyHandle
-from twig_ecs.kernelmath import ARM_MODES, CARRY, HANG, LIMP, POINT, REACH, RISE, SIT, STAND, WAVE
+from twig_ecs.kernelmath import ARM_MODES, CARRY, GAITS, HANG, LIMP, POINT, REACH, RISE, SIT, STAND, WAVE
 from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCKED, ROLES
 from twig_ecs.validate import LIMIT, suggest
 
@@ -263,6 +263,18 @@ class CharacterHandle(BodyHandle):
     def stand_height(self) -> float:
         """Pelvis height (m) the character stands at."""
         return float(self._chars().stand_height[self._crow])
+
+    @property
+    def gait(self) -> str:
+        """How it steps: "classic" (the default) or "human" (the Froude-scaled walk, docs/locomotion.md)."""
+        names = {v: k for k, v in GAITS.items()}
+        return names[int(self._chars().gait[self._crow])]
+
+    @gait.setter
+    def gait(self, name: str) -> None:
+        if name not in GAITS:
+            raise TwigError(f"'{self.name}': unknown gait '{name}'" + suggest(str(name), GAITS))
+        self._chars().gait[self._crow] = GAITS[name]
 
     @property
     def last_foot(self) -> str:

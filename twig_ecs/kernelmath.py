@@ -25,6 +25,37 @@ HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
 ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
              "carry": CARRY}  # fmt: skip
 
+# gaits (CHARACTER_FIELDS["gait"]): the classic stepping (systems/gait_classic.py) or the
+# human walk (systems/gait.py, docs/locomotion.md)
+CLASSIC, HUMAN = 0, 1
+GAITS = {"classic": CLASSIC, "human": HUMAN}
+
+
+# -- the walk's proportions (dynamic similarity, docs/locomotion.md) -------------------
+#: Froude number v^2 / (g L) the gait caps the walk at: a person starts running near 0.5;
+#: beyond 0.2 this point-footed walk loses its rhythm (docs/locomotion.md).
+WALK_FROUDE_MAX = 0.5
+#: Step length / leg length = STEP_GAIN * Froude ** STEP_POWER (a person: 0.7-0.8 at 1.2 m/s).
+STEP_GAIN, STEP_POWER = 1.15, 0.3
+#: Longest step period (s) per sqrt(L / g): people shuffle rather than step slower.
+MAX_STEP_PERIOD = 2.6
+
+
+@njit(cache=True, inline="always")
+def walk_speed(speed, leg, g):
+    """The walk speed a body with legs ``leg`` m long takes when asked for ``speed``: capped at
+    the Froude limit (the one place the top speed per body size is decided)."""
+    return min(speed, math.sqrt(WALK_FROUDE_MAX * g * leg))
+
+
+@njit(cache=True, inline="always")
+def step_length(speed, leg, g):
+    """Step length (m) at a walk of ``speed`` (already capped) for legs ``leg`` m long."""
+    fr = speed * speed / (g * leg)
+    by_froude = leg * STEP_GAIN * fr**STEP_POWER
+    # very slow: a step never takes longer than MAX_STEP_PERIOD natural times
+    return min(by_froude, speed * MAX_STEP_PERIOD * math.sqrt(leg / g))
+
 
 @njit(cache=True)
 def forward_xz(pos, left, right):

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from twig_ecs.kernelmath import GAITS
+
 #: Nodes a track records.
 TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot")
 #: Body heights (m) the lab measures: a small child, a big child, an adult.
@@ -144,12 +146,20 @@ def _scene():
     return Scene.load("empty")
 
 
-def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: float = 5.0) -> dict[str, float]:
+def _walker(scene, name: str, height: float, gait: str):
+    """A ``height`` m character with ``gait`` standing in ``scene`` after half a second to settle."""
+    person = scene.spawn("humanoid", name=name, height=height, character=True)
+    person.gait = gait
+    scene.run(0.5)
+    return person
+
+
+def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: float = 5.0,
+                 gait: str = "human") -> dict[str, float]:  # fmt: skip
     """Figures of a ``height`` m character walking straight at ``speed`` m/s (after ``settle`` s)."""
     scene = _scene()
     try:
-        person = scene.spawn("humanoid", name="walker", height=height, character=True)
-        scene.run(0.5)
+        person = _walker(scene, "walker", height, gait)
         legs = leg_length(person)
         person.walk((0.0, 0.0, speed))
         scene.run(settle)
@@ -161,12 +171,11 @@ def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: floa
         scene.close()
 
 
-def measure_uturn(height: float, speed: float = 1.2) -> float:
+def measure_uturn(height: float, speed: float = 1.2, gait: str = "human") -> float:
     """Largest torso pitch (degrees) of a ``height`` m character turning back at ``speed``."""
     scene = _scene()
     try:
-        person = scene.spawn("humanoid", name="turner", height=height, character=True)
-        scene.run(0.5)
+        person = _walker(scene, "turner", height, gait)
         person.walk((0.0, 0.0, speed))
         scene.run(3.0)
         person.walk((0.0, 0.0, -speed))
@@ -213,12 +222,12 @@ HUMAN = {
 }
 
 
-def table(sizes=SIZES, speeds=SPEEDS) -> list[dict[str, float]]:
+def table(sizes=SIZES, speeds=SPEEDS, gait: str = "human") -> list[dict[str, float]]:
     """One row of walk figures per (size, speed) the lab runs."""
     rows = []
     for h in sizes:
         for v in speeds:
-            row = measure_walk(h, v)
+            row = measure_walk(h, v, gait=gait)
             row["height"], row["asked"] = h, v
             rows.append(row)
     return rows
@@ -255,7 +264,7 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
 
 def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, frames: int = 12,
                   every: float = 0.1, size: tuple[int, int] = (320, 320),
-                  columns: int = 6) -> Path:  # fmt: skip
+                  columns: int = 6, gait: str = "human") -> Path:  # fmt: skip
     """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
     from PIL import Image
 
@@ -265,8 +274,7 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
     path = check_output(output)
     scene = _scene()
     try:
-        person = scene.spawn("humanoid", name="walker", height=height, character=True)
-        scene.run(0.5)
+        person = _walker(scene, "walker", height, gait)
         person.walk((0.0, 0.0, speed))
         scene.run(2.5)
         rows = math.ceil(frames / columns)
@@ -286,14 +294,14 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
         scene.close()
 
 
-def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS) -> str:
-    """Measure everything and write the contact sheet; returns the printed report."""
-    rows = table(sizes, speeds)
-    uturns = {h: measure_uturn(h) for h in sizes}
-    text = format_report(rows, uturns, measure_idle())
+def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS, gait: str = "human") -> str:
+    """Measure everything with ``gait`` and write the contact sheet; returns the printed report."""
+    rows = table(sizes, speeds, gait)
+    uturns = {h: measure_uturn(h, gait=gait) for h in sizes}
+    text = f"Gait: {gait}\n" + format_report(rows, uturns, measure_idle())
     if sheet:
         text += f"\nContact sheet (side view, {sizes[-1]:.2f} m at 1.2 m/s, 0.1 s apart): "
-        text += str(contact_sheet(sheet, height=sizes[-1]))
+        text += str(contact_sheet(sheet, height=sizes[-1], gait=gait))
     return text
 
 
@@ -302,7 +310,9 @@ def register_commands(sub) -> None:
     p = sub.add_parser("walklab", help="measure the walk per body size and speed beside a person's")
     p.add_argument("--sheet", default="walklab.png", metavar="FILE.png",
                    help="side-view contact sheet to write (default walklab.png; '' for none)")  # fmt: skip
-    p.set_defaults(func=lambda args: print(run_lab(args.sheet or None)) or 0)
+    p.add_argument("--gait", default="human", choices=sorted(GAITS),
+                   help="the gait to measure (default human; classic is the scenes' default)")  # fmt: skip
+    p.set_defaults(func=lambda args: print(run_lab(args.sheet or None, gait=args.gait)) or 0)
 
 
 def main() -> None:
