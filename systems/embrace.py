@@ -27,6 +27,7 @@ HIGH = 0.05  # m (at 1.75 m tall, the hugger's) above a small hugger's neck node
 LEAN = 0.0  # m (at 1.75 m tall) the shoulders lean over a small hugger (more would push it off)
 UP = 0.12  # m (at 1.75 m tall, the hugger's) above a small hugger's neck node the hands wait
 SHOULDER = 0.22  # m (at 1.75 m tall, the hugger's) either side of its neck they wait, over its shoulders
+STOOP_BELOW = 0.25  # m (at 1.75 m tall) below its own mid-spine a back is stooped to
 SIDE = 0.07  # m (at 1.75 m tall, the hugger's) either side of the spine for two hands
 HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand that flew at a
 # small child's back would be a blow: 1 kg at 1.3 m/s hurts a 1.05 m child)
@@ -34,14 +35,11 @@ HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand tha
 
 def held_at(character, hugger) -> str:
     """The node of ``hugger``'s torso that ``character``'s hands go behind: its upper
-    back (neck) when it is much smaller - a child at a grown-up's hips - else its waist
-    (pelvis) when its own arms go round ``character``'s chest, so the two pairs of arms
-    do not meet, else its mid-back (spine)."""
-    from twig_ecs.systems.hug import level_of  # (hug imports this module to register it)
-
+    back (neck) when it is much smaller - a child at a grown-up's hips - else its
+    mid-back (spine)."""
     if hugger.scale < 0.8 * character.scale:
         return "neck"
-    return "pelvis" if level_of(hugger, character) == "spine" else "spine"
+    return "spine"
 
 
 def huggers_of(scene) -> dict[int, tuple[int, str]]:
@@ -115,8 +113,10 @@ class Embrace(Behavior):
             # deeper bend or a crouch would push it off)
             back[1] += HIGH * other.scale
             character.lean(tuple(through * LEAN * character.scale))
+        elif back.item(1) < character.node("spine")[1] - STOOP_BELOW * character.scale:
+            character.stoop(tuple(back))  # a smaller (not small) hugger: get down to it
         else:
-            character.stoop(tuple(back))
+            character.stoop(None)  # an equal: stand tall, arms round it (bending would push it off)
         for hand, side in (("left", 1.0), ("right", -1.0)):
             if hand in character.holding:
                 continue

@@ -33,10 +33,11 @@ DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to 
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
 HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
 # flew at the back would be a blow)
-ROUNDS = (1.1, 0.9, 0.7, 0.5, 0.35, 0.2)  # rad past the torso's side, towards its spine, that a
+ROUNDS = (1.1, 0.9, 0.7, 0.55, 0.45, 0.35, 0.3)  # rad past the torso's side, towards its spine, that a
 # hand goes round to: the furthest its arm reaches
 PAST = 0.2  # rad past the torso's side of the way-point a hand in front of it goes round by
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
+REACHABLE = 0.95  # of ARM, straight from the shoulder: a point the hand gets to round a torso
 ON_BACK = 0.3  # m (the recorder's BACK_REACH): a hand this close to the torso node, beyond it, is on the back
 TOUCH = 0.015  # m (at 1.75 m tall): torso this close to the partner's body: in touch, stop closing in
 ARM_NODES = ("l_elbow", "r_elbow", "l_hand", "r_hand")
@@ -147,15 +148,20 @@ def back_points(character, other) -> dict[str, np.ndarray]:
     y = min(float(centre[1]), float(character.node("neck")[1]))
     arm = ARM * character.scale
     out = {}
+    # as far round towards the spine as the arms will go (a straight line from the
+    # shoulder, less some for the curve round the torso), the same way round on both
+    # sides, from square shoulders: a hand that got further would pull its shoulder
+    # forward and twist the hugger, so the other could get less far still
+    neck = character.node("neck")
+    half = 0.5 * float(np.linalg.norm(character.node("l_shoulder") - character.node("r_shoulder")))
+    for angle in ROUNDS:
+        point = centre + radius * (np.cos(angle) * left + np.sin(angle) * through)
+        point[1] = y
+        if float(np.linalg.norm(point - (neck + half * left))) <= REACHABLE * arm:
+            break
     for hand, side in (("left", 1.0), ("right", -1.0)):
-        shoulder = character.node(("l_shoulder", "r_shoulder")[hand == "right"])
-        # as far round towards the spine as the arm will go (a straight line from the
-        # shoulder, less some for the curve round the torso)
-        for angle in ROUNDS:
-            point = centre + radius * (np.cos(angle) * left * side + np.sin(angle) * through)
-            point[1] = y
-            if float(np.linalg.norm(point - shoulder)) <= 0.8 * arm:
-                break
+        point = centre + radius * (np.cos(angle) * left * side + np.sin(angle) * through)
+        point[1] = y
         out[hand] = point
     return out
 
