@@ -34,13 +34,13 @@ import numpy as np
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
 from twig_ecs.systems.collide import closest_segment_params
+from twig_ecs.systems.hug import hands_on_back
 
 SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
 SPIN_UP = 0.005  # rad/s gained in one step by a turning body: a push (its bearings only slow it)
 MERGE = 0.15  # s: ball speed-ups closer together than this are one kick
 TOUCH_GAP = 0.03  # m: a leg this close to the ball touched it
 HAND_GAP = 0.06  # m: a hand this close to a bar is on it
-BACK_REACH = 0.3  # m: a hand this close to the hugger's spine, beyond it, is on its back
 RELEASE_MEMORY = 1.0  # s after letting go that a dropped thing still counts as held
 DEPTH_EVERY = 6  # steps between samples of a carried thing's depth in its carrier (10 Hz)
 FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) holding hand
@@ -250,9 +250,9 @@ class InteractionRecorder:
             if phase != "hold":
                 continue
             figures.frames += 1
-            if self._hands_on_back(me, partner) == 2:
+            if hands_on_back(me, partner) == 2:
                 figures.both_arms += 1
-            if hasattr(partner, "holding") and self._hands_on_back(partner, me) >= 1:
+            if hasattr(partner, "holding") and hands_on_back(partner, me) >= 1:
                 figures.partner_hand += 1
 
     def _arm_depth(self, me, other) -> float:
@@ -269,23 +269,6 @@ class InteractionRecorder:
                 gap = segment_gap(p, q, r, pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))
                 deepest = max(deepest, -gap)
         return deepest
-
-    @staticmethod
-    def _hands_on_back(holder, held) -> int:
-        """How many of ``holder``'s hands are on ``held``'s back: beyond its torso (the
-        pelvis, spine or neck node nearest the hand) as seen from ``holder``'s spine, and
-        within BACK_REACH of that node."""
-        count = 0
-        for hand in ("l_hand", "r_hand"):
-            palm = holder.node(hand)
-            node = min(("pelvis", "spine", "neck"), key=lambda n: float(np.linalg.norm(palm - held.node(n))))
-            centre = held.node(node)
-            through = (centre - holder.node("spine")) * np.array([1.0, 0.0, 1.0])
-            through /= max(float(np.linalg.norm(through)), 1e-9)
-            off = palm - centre
-            if float(np.linalg.norm(off)) <= BACK_REACH and float(off @ through) > 0.0:
-                count += 1
-        return count
 
     def _measure_carried(self, chars) -> None:
         scene = self.scene
@@ -315,7 +298,9 @@ class InteractionRecorder:
                 thing = scene.entity(name)
                 figures.max_link_error = max(figures.max_link_error, self._link_error(thing.body.index))
                 if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
-                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index))
+                    hands = tuple(me._row(("l_hand", "r_hand")[h == "right"])
+                                  for h, n in me.holding.items() if n == name)  # fmt: skip
+                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index, hands))
 
     def _anchored(self, name: str) -> bool:
         """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""
@@ -336,14 +321,20 @@ class InteractionRecorder:
         error = np.where(rope, np.maximum(error, 0.0), np.abs(error))
         return float(error.max()) if len(error) else 0.0
 
-    def _depth(self, body_a: int, body_b: int) -> float:
-        """Deepest overlap (m) between the collidable links of two bodies."""
+    def _depth(self, body_a: int, body_b: int, hands: tuple[int, ...] = ()) -> float:
+        """Deepest overlap (m) between the collidable links of two bodies; a link of
+        ``body_b`` ending at one of the node rows ``hands`` (a holding hand) counts only
+        its FOREARM_SHARE from the other end: the hand itself holds the thing."""
         lk, pos = self.scene.state.links, self.scene.state.nodes.pos
         deepest = 0.0
         for i in self._collidable_links(body_a):
             for j in self._collidable_links(body_b):
-                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]),
-                                  pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))  # fmt: skip
+                p, q = pos[lk.a[j]], pos[lk.b[j]]
+                if int(lk.b[j]) in hands:
+                    q = p + FOREARM_SHARE * (q - p)
+                elif int(lk.a[j]) in hands:
+                    p = q + FOREARM_SHARE * (p - q)
+                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]), p, q, float(lk.radius[j]))
                 deepest = max(deepest, -gap)
         return deepest
 
