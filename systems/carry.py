@@ -16,10 +16,10 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.components import Character
-from twig_ecs.kernelmath import HANG
-from twig_ecs.store import NODE_LOCKED
 from twig_ecs.errors import TwigError
+from twig_ecs.kernelmath import HANG
 from twig_ecs.steering import ground_distance
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.approach import steer_to, target_point
 
 FETCH_TIME = 4.0  # s to get a hand on it once there

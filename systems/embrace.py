@@ -33,6 +33,22 @@ HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand tha
 # small child's back would be a blow: 1 kg at 1.3 m/s hurts a 1.05 m child)
 
 
+def glide(aims: dict, character, hand: str, point: np.ndarray, step: float) -> None:
+    """Reach ``hand`` for a point that moves from the hand towards ``point`` by at most
+    ``step`` metres this step (``aims`` keeps it between steps, keyed (entity, hand)): a
+    hand that flew at a body would be a blow."""
+    key = (character.entity, hand)
+    aim = aims.get(key)
+    if aim is None:
+        aim = character.node(("l_hand", "r_hand")[hand == "right"])
+    move = point - aim
+    far = float(np.linalg.norm(move))
+    if far > step:
+        move *= step / far
+    aims[key] = aim = aim + move
+    character.reach(tuple(aim), hand=hand)
+
+
 def held_at(character, hugger) -> str:
     """The node of ``hugger``'s torso that ``character``'s hands go behind: its upper
     back (neck) when it is much smaller - a child at a grown-up's hips - else its
@@ -120,19 +136,8 @@ class Embrace(Behavior):
         for hand, side in (("left", 1.0), ("right", -1.0)):
             if hand in character.holding:
                 continue
-            # the point reached for glides from the hand to the back at HAND_SPEED
-            key = (character.entity, hand)
-            aim = self.aims.get(key)
-            if aim is None:
-                aim = character.node(("l_hand", "r_hand")[hand == "right"])
             spread = SIDE if not (small and phase == "wrap") else SHOULDER
-            goal_point = back + left * side * spread * other.scale
-            step = goal_point - aim
-            far = float(np.linalg.norm(step))
-            if far > HAND_SPEED * dt:
-                step *= HAND_SPEED * dt / far
-            self.aims[key] = aim = aim + step
-            character.reach(tuple(aim), hand=hand)
+            glide(self.aims, character, hand, back + left * side * spread * other.scale, HAND_SPEED * dt)
 
     def stop(self, character, goal) -> None:
         """Arms down, stand up."""

@@ -20,9 +20,9 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
-from twig_ecs.systems import embrace  # noqa: F401  (registers the partner's answer to a hug)
 from twig_ecs.systems.approach import steer_to
 from twig_ecs.systems.collide import closest_segment_params
+from twig_ecs.systems.embrace import glide  # (importing it registers the partner's answer to a hug)
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis the hugger closes in to
 WRAP_TIME = 3.0  # s to get the arms round
@@ -38,7 +38,7 @@ ROUNDS = (1.1, 0.9, 0.7, 0.55, 0.45, 0.35, 0.3)  # rad past the torso's side, to
 PAST = 0.2  # rad past the torso's side of the way-point a hand in front of it goes round by
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
 REACHABLE = 0.95  # of ARM, straight from the shoulder: a point the hand gets to round a torso
-ON_BACK = 0.3  # m (the interaction recorder counts with it too): a hand this close to the torso node, beyond it, is on the back
+ON_BACK = 0.3  # m: a hand this close to a torso node, beyond it, is on the back (the recorder's too)
 TOUCH = 0.015  # m (at 1.75 m tall): torso this close to the partner's body: in touch, stop closing in
 ARM_NODES = ("l_elbow", "r_elbow", "l_hand", "r_hand")
 FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius, the hand's clearance off the surface
@@ -87,7 +87,7 @@ class Hug(Behavior):
         if phase == "hold":
             character.lean(toward * LEAN_IN * scale)
         for hand, point in back_points(character, other).items():
-            self._glide(character, hand, round_the_side(character, other, hand, point), dt)
+            glide(self.aims, character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
         if phase == "wrap":
             on = hands_on_back(character, other)
             if on == 2:
@@ -100,19 +100,6 @@ class Hug(Behavior):
             return
         if now - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
-
-    def _glide(self, character, hand: str, point: np.ndarray, dt: float) -> None:
-        """Reach ``hand`` for a point that moves from the hand towards ``point`` at HAND_SPEED."""
-        key = (character.entity, hand)
-        aim = self.aims.get(key)
-        if aim is None:
-            aim = character.node(("l_hand", "r_hand")[hand == "right"])
-        step = point - aim
-        far = float(np.linalg.norm(step))
-        if far > HAND_SPEED * dt:
-            step *= HAND_SPEED * dt / far
-        self.aims[key] = aim = aim + step
-        character.reach(tuple(aim), hand=hand)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Arms down (a carried toy stays in its hand) and stand up straight."""
@@ -135,8 +122,9 @@ def level_of(character, other) -> str:
 
 def back_points(character, other) -> dict[str, np.ndarray]:
     """Where each of ``character``'s hands goes on ``other``'s back: round the torso at
-    :func:`level_of`, as far past each side towards the spine as the arm reaches (``ROUNDS``), a forearm's thickness off
-    its surface (its widest capsule there); no higher than the hugger's shoulders."""
+    :func:`level_of`, as far past each side towards the spine as the arms reach
+    (``ROUNDS``), a forearm's thickness off its surface (its widest capsule there); no
+    higher than the hugger's shoulders."""
     level = level_of(character, other)
     centre = other.node(level)
     through = _unit(centre - character.node("spine"))
@@ -169,7 +157,8 @@ def back_points(character, other) -> dict[str, np.ndarray]:
 def round_the_side(character, other, hand: str, point: np.ndarray) -> np.ndarray:
     """Where ``hand`` heads for on its way to ``point`` on ``other``'s back: while it is
     still in front of ``other``'s torso (seen from ``character``), a point out beside the
-    torso on the hand's side, a little past its widest (``PAST``), at ``point``'s height - an arm goes round a body, not into it."""
+    torso on the hand's side, a little past its widest (``PAST``), at ``point``'s height:
+    an arm goes round a body, not into it."""
     palm = character.node(("l_hand", "r_hand")[hand == "right"])
     centre = other.node(level_of(character, other))
     through = _unit(centre - character.node("spine"))

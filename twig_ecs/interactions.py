@@ -289,7 +289,8 @@ class InteractionRecorder:
             if figures.start is None:
                 figures.start = other.position
             figures.frames += 1
-            figures.max_shift = max(figures.max_shift, float(np.hypot(*(other.position - figures.start)[[0, 2]])))
+            shift = float(np.hypot(*(other.position - figures.start)[[0, 2]]))
+            figures.max_shift = max(figures.max_shift, shift)
             apart = (other.position - me.position) * np.array([1.0, 0.0, 1.0])
             gap = float(np.linalg.norm(apart))
             if gap > FIGHT_REACH * me.scale:
@@ -344,7 +345,8 @@ class InteractionRecorder:
                 if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
                     hands = tuple(me._row(("l_hand", "r_hand")[h == "right"])
                                   for h, n in me.holding.items() if n == name)  # fmt: skip
-                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index, hands))
+                    depth = self._depth(thing.body.index, me.body.index, hands)
+                    figures.max_depth = max(figures.max_depth, depth)
 
     def _anchored(self, name: str) -> bool:
         """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""

@@ -392,9 +392,9 @@ class PhysicsState:
             for hand, elbow in ((ROLES.index("l_hand"), ROLES.index("l_elbow")),
                                 (ROLES.index("r_hand"), ROLES.index("r_elbow"))):  # fmt: skip
                 elbow_of[int(ch.nodes[c, hand])] = int(ch.nodes[c, elbow])
-        held_pairs = [(int(lk.a[g]), int(lk.b[g]), True) for g in grabs]
-        held_pairs += [(a, b, False) for a, b, _ in self.released]
-        for a, b, live in held_pairs:
+        held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
+        held_pairs += [(a, b) for a, b, _ in self.released]
+        for a, b in held_pairs:
             ba, bb = int(n.body[a]), int(n.body[b])
             arm_a = {a, elbow_of.get(a, a)}
             # the held end is an arm too only when it is a hand (hand in hand); the
