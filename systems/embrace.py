@@ -27,7 +27,6 @@ HIGH = 0.05  # m (at 1.75 m tall, the hugger's) above a small hugger's neck node
 LEAN = 0.0  # m (at 1.75 m tall) the shoulders lean over a small hugger (more would push it off)
 UP = 0.12  # m (at 1.75 m tall, the hugger's) above a small hugger's neck node the hands wait
 SHOULDER = 0.22  # m (at 1.75 m tall, the hugger's) either side of its neck they wait, over its shoulders
-STOOP_BELOW = 0.25  # m (at 1.75 m tall) below its own mid-spine a back is stooped to
 SIDE = 0.07  # m (at 1.75 m tall, the hugger's) either side of the spine for two hands
 HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand that flew at a
 # small child's back would be a blow: 1 kg at 1.3 m/s hurts a 1.05 m child)
@@ -50,12 +49,13 @@ def glide(aims: dict, character, hand: str, point: np.ndarray, step: float) -> N
 
 
 def held_at(character, hugger) -> str:
-    """The node of ``hugger``'s torso that ``character``'s hands go behind: its upper
-    back (neck) when it is much smaller - a child at a grown-up's hips - else its
-    mid-back (spine)."""
+    """Where on ``hugger``'s back ``character``'s hands go: its upper back ("neck") when
+    it is much smaller - a child at a grown-up's hips; its lower back ("waist", between
+    pelvis and spine) when it is about as big, under the hugger's own arms round the
+    chest; else (a giant) its mid-back ("spine")."""
     if hugger.scale < 0.8 * character.scale:
         return "neck"
-    return "spine"
+    return "waist" if hugger.scale < 1.25 * character.scale else "spine"
 
 
 def huggers_of(scene) -> dict[int, tuple[int, str]]:
@@ -114,7 +114,10 @@ class Embrace(Behavior):
             return
         character.stop()
         back_node = held_at(character, other)
-        centre = other.node(back_node)
+        if back_node == "waist":
+            centre = 0.5 * (other.node("pelvis") + other.node("spine"))
+        else:
+            centre = other.node(back_node)
         through = (centre - character.node("spine")) * np.array([1.0, 0.0, 1.0])
         through /= max(float(np.linalg.norm(through)), 1e-9)
         left = np.array([through[2], 0.0, -through[0]])
@@ -129,10 +132,11 @@ class Embrace(Behavior):
             # deeper bend or a crouch would push it off)
             back[1] += HIGH * other.scale
             character.lean(tuple(through * LEAN * character.scale))
-        elif back.item(1) < character.node("spine")[1] - STOOP_BELOW * character.scale:
-            character.stoop(tuple(back))  # a smaller (not small) hugger: get down to it
+        elif back_node == "waist":  # an equal: stand tall, arms round its lower back, under
+            # its own arms (bending or crouching would push it off)
+            character.stoop(None)
         else:
-            character.stoop(None)  # an equal: stand tall, arms round it (bending would push it off)
+            character.stoop(tuple(back))  # a smaller (not small) hugger: get down to it
         for hand, side in (("left", 1.0), ("right", -1.0)):
             if hand in character.holding:
                 continue

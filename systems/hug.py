@@ -4,7 +4,8 @@ Goal-driven (``character.hug(target, duration=2)``). Phases, kept in the goal's 
 ``approach`` (walk up with the arms in the hug pose, slowing to docking pace), ``wrap``
 (close in at a creep while each hand - a free one, or one holding a small thing such as
 a doll, which goes round holding it - glides round the target's torso to a point on its
-back), ``hold`` (for ``duration`` seconds, leaning in), then the arms drop and it is done.
+back), ``hold`` (for ``duration`` seconds, standing in touch; a small hugger leans into a
+grown-up's legs), then the arms drop and it is done.
 
 The arms are not joined to the target: the hands are pulled to their places on its back
 and the bodies keep colliding all the while, so an arm wraps round the torso's surface
@@ -24,11 +25,13 @@ from twig_ecs.systems.approach import steer_to
 from twig_ecs.systems.collide import closest_segment_params
 from twig_ecs.systems.embrace import glide  # (importing it registers the partner's answer to a hug)
 
-CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis the hugger closes in to
+CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
+CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
 WRAP_TIME = 3.0  # s to get the arms round
 REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
 CREEP = 0.3  # m/s of the last steps in, arms going round
-LEAN_IN = 0.22  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
+LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
+BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
 HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
@@ -41,7 +44,8 @@ REACHABLE = 0.95  # of ARM, straight from the shoulder: a point the hand gets to
 ON_BACK = 0.3  # m: a hand this close to a torso node, beyond it, is on the back (the recorder's too)
 TOUCH = 0.015  # m (at 1.75 m tall): torso this close to the partner's body: in touch, stop closing in
 ARM_NODES = ("l_elbow", "r_elbow", "l_hand", "r_hand")
-FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius, the hand's clearance off the surface
+FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius
+CLEAR = 1.5  # forearm radii off the surface the hands rest: on the back, not squeezing it
 
 
 @register
@@ -79,13 +83,15 @@ class Hug(Behavior):
             return
         now = character.scene.time
         # close in slowly while the arms go round until the torso meets the partner's
-        # body (walking on into it would squeeze the two apart in a burst: a blow)
-        if gap > CLOSE * scale and torso_gap(character, other) > TOUCH * scale:
-            character.walk(toward * (CREEP if phase == "wrap" else 0.5 * CREEP))
+        # body; then stand (walking or leaning on into it would push the partner off its
+        # feet: it steps to catch itself and its knee strikes - a blow)
+        near = (CLOSE if other.scale > BIG * scale else CLOSE_EQUAL) * scale
+        if phase == "wrap" and gap > near and torso_gap(character, other) > TOUCH * scale:
+            character.walk(toward * CREEP)
         else:
             character.stop()
-        if phase == "hold":
-            character.lean(toward * LEAN_IN * scale)
+        if phase == "hold" and other.scale > BIG * scale:
+            character.lean(toward * LEAN_IN * scale)  # into a grown-up's legs: they hold firm
         for hand, point in back_points(character, other).items():
             glide(self.aims, character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
         if phase == "wrap":
@@ -123,16 +129,17 @@ def level_of(character, other) -> str:
 def back_points(character, other) -> dict[str, np.ndarray]:
     """Where each of ``character``'s hands goes on ``other``'s back: round the torso at
     :func:`level_of`, as far past each side towards the spine as the arms reach
-    (``ROUNDS``), a forearm's thickness off its surface (its widest capsule there); no
+    (``ROUNDS``), a little more than a forearm's thickness off its surface (its widest capsule there); no
     higher than the hugger's shoulders."""
     level = level_of(character, other)
     centre = other.node(level)
     through = _unit(centre - character.node("spine"))
     left = np.array([through[2], 0.0, -through[0]])  # the hugger's left
-    radius = _surface(other, level) + FOREARM * character.scale
+    clear = CLEAR * FOREARM * character.scale
+    radius = _surface(other, level) + clear
     if level == "pelvis":  # the hips stick out sideways beyond the spine's capsule
         half = 0.5 * float(np.linalg.norm(other.node("l_hip") - other.node("r_hip")))
-        radius = max(radius, half + 0.08 * other.scale + FOREARM * character.scale)
+        radius = max(radius, half + 0.08 * other.scale + clear)
     y = min(float(centre[1]), float(character.node("neck")[1]))
     arm = ARM * character.scale
     out = {}

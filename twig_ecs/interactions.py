@@ -280,7 +280,7 @@ class InteractionRecorder:
             goal = next((g for g in me.goals if g.behavior == "grapple"), None)
             key = None if goal is None else (me.name, goal.params["target"])
             for pair, figures in self.fights.items():
-                if pair != key:
+                if pair[0] == me.name and pair != key:
                     figures.start = None  # that fight is over: the next one starts afresh
             if goal is None or "fighting" not in goal.memory or key[1] not in scene.entity_names:
                 continue
