@@ -51,8 +51,8 @@ def glide(aims: dict, character, hand: str, point: np.ndarray, step: float) -> N
 def held_at(character, hugger) -> str:
     """Where on ``hugger``'s back ``character``'s hands go: its upper back ("neck") when
     it is much smaller - a child at a grown-up's hips; its lower back ("waist", between
-    pelvis and spine) when it is about as big, under the hugger's own arms round the
-    chest; else (a giant) its mid-back ("spine")."""
+    pelvis and spine) when it is about as big, under the hugger's own arms round its
+    upper back; else (a giant) its mid-back ("spine")."""
     if hugger.scale < 0.8 * character.scale:
         return "neck"
     return "waist" if hugger.scale < 1.25 * character.scale else "spine"

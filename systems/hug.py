@@ -9,8 +9,8 @@ grown-up's legs), then the arms drop and it is done.
 
 The arms are not joined to the target: the hands are pulled to their places on its back
 and the bodies keep colliding all the while, so an arm wraps round the torso's surface
-instead of sinking into it. A small hugger holds a grown-up round the hips; equals hold
-each other round the chest. Arms that get no hand onto the back within ``WRAP_TIME``
+instead of sinking into it. A small hugger holds a grown-up round the hips; between
+equals the hugger's arms go round the partner's upper back, the partner's round its waist. Arms that get no hand onto the back within ``WRAP_TIME``
 fail the goal; one hand round by then is a hug (a short arm round a broad body).
 """
 
@@ -120,10 +120,11 @@ class Hug(Behavior):
 
 def level_of(character, other) -> str:
     """The node of ``other``'s torso the arms go round: the one nearest the hugger's
-    shoulder height, less a little (a child hugs a grown-up round the hips, equals hug
-    round the chest)."""
+    shoulder height, less a little - a child hugs a grown-up round the hips (pelvis),
+    equals hug round the upper back (neck), over the arms the partner puts round their
+    waist."""
     shoulder_y = character.node("neck")[1] - 0.1 * character.scale
-    return min(("spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
+    return min(("neck", "spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
 
 
 def back_points(character, other) -> dict[str, np.ndarray]:
