@@ -10,8 +10,9 @@ grown-up's legs), then the arms drop and it is done.
 The arms are not joined to the target: the hands are pulled to their places on its back
 and the bodies keep colliding all the while, so an arm wraps round the torso's surface
 instead of sinking into it. A small hugger holds a grown-up round the hips; between
-equals the hugger's arms go round the partner's upper back, the partner's round its waist. Arms that get no hand onto the back within ``WRAP_TIME``
-fail the goal; one hand round by then is a hug (a short arm round a broad body).
+equals the hugger's arms go round the partner's upper back, the partner's round its
+waist. Arms that get no hand onto the back within ``WRAP_TIME`` fail the goal; one hand
+round by then is a hug (a short arm round a broad body).
 """
 
 from __future__ import annotations

@@ -161,8 +161,8 @@ def test_a_scuffle_is_face_to_face_and_the_victim_staggers_back_and_turns_away(t
         tmp_path,
         scenes,
         "  - {name: big, body: humanoid, height: 1.35, position: [0, 0, 0], character: true}\n"
-        "  - {name: small, body: humanoid, height: 1.05, position: [1.5, 0, 2], facing: 90, character: true,\n"
-        "     pain: {threshold: 0.8}}\n",
+        "  - {name: small, body: humanoid, height: 1.05, position: [1.5, 0, 2], facing: 90,\n"
+        "     character: true, pain: {threshold: 0.8}}\n",
     )
     big, small = (scene.character_handle(scene.entity(n).entity) for n in ("big", "small"))
     goal = big.grapple("small", duration=3.0)
