@@ -93,7 +93,9 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     # every 1.2 s within reach as before: fewer, and each one a touch
     assert kids["small_child"]["ball_touches"] + kids["big_child"]["ball_touches"] >= KICKS
     assert kids["small_child"]["spins"] + kids["big_child"]["spins"] >= 1
-    assert report["merry_go_round_peak_rad_s"] > 0.5, "a child spun it"
+    # 0.42 rad/s on seed 0 since issue 15's second pass (was 0.52-0.81): the runner's body
+    # now meets the deck it runs beside (only its holding arms pass through the ride)
+    assert report["merry_go_round_peak_rad_s"] > 0.3, "a child spun it"
     assert kids["small_child"]["held_fraction"]["ragdoll"] > 0.9, "the doll is carried most of the run"
     assert kids["parent"]["time_per_behaviour"]["watch"] > 0.9 * FIVE_MINUTES
     assert plot.stat().st_size > 10_000
