@@ -97,7 +97,10 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     # now meets the deck it runs beside (only its holding arms pass through the ride)
     assert report["merry_go_round_peak_rad_s"] > 0.3, "a child spun it"
     assert kids["small_child"]["held_fraction"]["ragdoll"] > 0.9, "the doll is carried most of the run"
-    assert kids["parent"]["time_per_behaviour"]["watch"] > 0.9 * FIVE_MINUTES
+    # the parent watches, but for turning to and holding the child that comes for a hug
+    parent = kids["parent"]["time_per_behaviour"]
+    assert parent["watch"] > 0.75 * FIVE_MINUTES
+    assert parent["watch"] + parent.get("embrace", 0.0) > 0.9 * FIVE_MINUTES
     assert plot.stat().st_size > 10_000
 
 
