@@ -4,17 +4,22 @@ Goal-driven. ``character.carry(target, to=None)``: approach the target, reach fo
 grab it when the hand is close enough (a zero-length link), then walk to ``to`` (a
 point or entity) if given; done on arrival (still holding it). ``character.drag(target,
 distance=5)``: the same fetch, then walk straight away from where it lay for
-``distance`` metres, pulling it along; it lets go when the goal ends.
+``distance`` metres, pulling it along; it lets go when the goal ends. ``cradle`` (not
+commanded) keeps a carried thing up in front of the body whenever its hand is not busy.
 """
 
 from __future__ import annotations
 
+import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
+from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
+from twig_ecs.kernelmath import HANG
 from twig_ecs.steering import ground_distance
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.approach import steer_to, target_point
 
 FETCH_TIME = 4.0  # s to get a hand on it once there
@@ -111,3 +116,44 @@ class Drag(Behavior):
         character.release()
         character.stop()
         character.stoop(None)
+
+
+@register
+class Cradle(Behavior):
+    """Holds what a hand carries up in front of the body, clear of the legs.
+
+    Never proposed, never acts: every step, each hand that holds a small loose thing (not
+    a character, nothing fixed) and is left hanging by whatever the character is doing is
+    put in the ``carry`` pose - a doll is held before the belly, where no swinging leg
+    kicks it through, rather than dangled beside the thigh. A behaviour that wants that
+    hand (a hug puts it round the partner, doll and all) takes it over as usual.
+    """
+
+    name = "cradle"
+
+    def process(self, dt: float) -> None:
+        """Put every hanging hand that holds a loose thing in the carry pose."""
+        scene = self.scene
+        modes = scene.state.characters.arm_mode
+        for entity, (character, _) in esper.get_components(Character, Mind):
+            if not character.holding:
+                continue
+            me = scene.character_handle(entity)
+            if me.posture == "limp":
+                continue  # no control: its arms hang, whatever they hold
+            for hand, held in me.holding.items():
+                h = int(hand == "right")
+                if modes[me._crow, h] == HANG and _loose(scene, held):
+                    me.pose("carry", hand=hand)
+
+
+def _loose(scene, name: str) -> bool:
+    """Is ``name`` a thing a hand carries about: not a character, no node fixed in place."""
+    if name not in scene.entity_names:
+        return False
+    thing = scene.entity(name)
+    if hasattr(thing, "holding"):
+        return False
+    body = thing.body
+    rows = slice(body.node_start, body.node_start + len(body.node_names))
+    return not bool((scene.state.nodes.flags[rows] & NODE_LOCKED).any())

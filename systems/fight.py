@@ -2,19 +2,26 @@
 
 For each character with a :class:`~twig_ecs.components.Feisty`: when the rival is
 within ``reach``, a fight starts at random (``temper`` per second, from the scene's
-seeded RNG) as a grapple goal; at most one fight every ``COOLDOWN`` seconds.
+seeded RNG) as a grapple goal; at most one fight every ``COOLDOWN`` seconds, and none
+while the rival is on its way to a hug or in one. The one attacked squares up to the
+fighter (:class:`Defend`).
 """
 
 from __future__ import annotations
 
 import esper
+import numpy as np
 
-from twig_ecs.behavior import Behavior, register
+from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Character, Feisty
 from twig_ecs.steering import ground_distance
 
 COOLDOWN = 25.0  # s between fights
 FIGHT_TIME = 3.0  # s of grappling
+DEFEND = 0.9  # activation of squaring up to a fighter: above play, rides and goals, below pain
+SQUARE_UP = 2.0  # m (ground): a fighter this near is faced
+TURN_PACE = 0.25  # m/s (at 1.75 m tall) of the steps round to face it
+FACED = 0.8  # cosine: facing it this squarely is facing it
 
 
 @register
@@ -40,7 +47,71 @@ class Fight(Behavior):
             rival = scene.entity(feisty.rival)
             if ground_distance(me.position, rival.position) > feisty.reach:
                 continue
+            if any(g.behavior == "hug" for g in getattr(rival, "goals", ())):
+                continue  # not while it runs to (or hugs) its grown-up
             if scene.rng.random() < feisty.temper * dt:
                 self.last[entity] = scene.time
                 feisty.fights += 1
                 me.grapple(feisty.rival, duration=FIGHT_TIME)
+
+
+def attackers_of(scene) -> dict[int, int]:
+    """Who is fighting whom right now: {target entity: fighter entity} (grapple goals)."""
+    out: dict[int, int] = {}
+    for entity, mind in scene.goal_holders():
+        goal = mind.goal
+        if goal is None or goal.behavior != "grapple":
+            continue
+        target = goal.params.get("target")
+        if target in scene.entity_names:
+            out[scene.entity(target).entity] = entity
+    return out
+
+
+@register
+class Defend(Behavior):
+    """Square up to someone who comes to fight: face it, arms up (not commanded).
+
+    Every autonomous character someone is coming at with a grapple goal, within
+    ``SQUARE_UP`` metres, stops what it was doing (its activation beats play, rides and
+    goals, not pain: a blow that hurts makes it stagger back and turn away, see
+    withdraw), turns to the fighter and holds its arms up in guard.
+    """
+
+    name = "defend"
+
+    def setup(self) -> None:
+        """Who is attacked by whom this step (looked up once per step)."""
+        self.attacked_by: dict[int, int] = {}
+
+    def candidates(self) -> list[tuple[int, Mind]]:
+        """Only the characters someone is fighting."""
+        self.attacked_by = attackers_of(self.scene)
+        return [(e, esper.component_for_entity(e, Mind)) for e in self.attacked_by
+                if esper.entity_exists(e) and esper.has_component(e, Mind)]  # fmt: skip
+
+    def activation(self, character, mind: Mind, goal) -> float:
+        """High while the fighter is near."""
+        fighter = self.attacked_by.get(character.entity)
+        if fighter is None:
+            return 0.0
+        other = self.scene.character_handle(fighter)
+        return DEFEND if ground_distance(character.position, other.position) < SQUARE_UP else 0.0
+
+    def act(self, character, mind: Mind, goal, dt: float) -> None:
+        """Face the fighter, guard up; a step round to face it when turned away."""
+        other = self.scene.character_handle(self.attacked_by[character.entity])
+        character.look_at(other.name, node="head")
+        character.pose("grapple")
+        to = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
+        to /= max(float(np.linalg.norm(to)), 1e-9)
+        if float(character.facing @ to) < FACED:
+            character.walk(tuple(to * TURN_PACE * character.scale))  # slow steps round to face it
+        else:
+            character.stop()
+
+    def stop(self, character, goal) -> None:
+        """Guard down."""
+        character.pose("hang")
+        character.stop()
+        character.look_at(None)

@@ -1,10 +1,12 @@
-"""grapple: close to arm's length, then the arms bash the target (SPEC 4).
+"""grapple: close to arm's length, then shove and hit the target, face to face (SPEC 4).
 
 Goal-driven (``character.grapple(target, duration=3)``): approach with the arms up
-(the grapple pose), then throw the hands at the target's head and chest in turn -
-shoves and punches whose impacts hurt it (its pain withdrawal may well win). Follows
-the target when it backs off; done after ``duration`` seconds of fighting within reach
-(and failed, like an approach, if it cannot catch up).
+(the grapple pose), then, standing square to the target within arm's reach, a shove
+with both hands to its chest and blows at its chest and head, one hand then the other -
+impacts that hurt it (its pain withdrawal may well win: it staggers back and turns
+away). It steps after a target that backs off, at a walk; one that gets away (out of
+reach for ``LET_GO`` seconds) ends the fight. Done after ``duration`` seconds of
+fighting within reach, or when the target gets away; failed if it cannot get to it.
 """
 
 from __future__ import annotations
@@ -16,10 +18,13 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
 
 ARMS_LENGTH = 0.55  # m (at 1.75 m tall): where the fight starts
-PUNCH = 0.4  # s per blow; the hands take turns
+PUNCH = 0.5  # s per blow or shove
 THROUGH = 0.3  # m (at 1.75 m tall) beyond the struck point that a punch aims at
-PUNCH_SPEED = 9.0  # m/s of a thrown fist
-CHASE = 1.6  # m/s: a fighter goes after its target faster than a walk
+PUNCH_SPEED = 8.0  # m/s of a thrown fist (at 1.75 m tall; a smaller fighter throws slower)
+SHOVE_SPEED = 3.0  # m/s of the two hands of a shove (at 1.75 m tall)
+APPROACH = 1.4  # m/s: a fighter walks up briskly
+FOLLOW = 0.9  # m/s: it steps after a target that backs off, at a walk (not a chase)
+LET_GO = 1.5  # s out of reach after which the target has got away: the fight is over
 
 
 @register
@@ -33,42 +38,59 @@ class Grapple(Behavior):
     kinds = {"target": "figure", "duration": "seconds"}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Close in, then punch left and right in turn."""
+        """Close in, then shove and punch in turn, square to the target."""
         target = goal.params["target"]
         m = goal.memory
         scale = character.scale
         character.look_at(target, node="head")
         other = character.scene.entity(target)
+        now = character.scene.time
         if "fighting" not in m:
             character.pose("grapple")
-            if steer_to(character, goal, target, ARMS_LENGTH * scale, speed=CHASE):
-                m["fighting"] = character.scene.time
-                m.pop("best", None)  # following it later starts stall-watching afresh
+            if steer_to(character, goal, target, ARMS_LENGTH * scale, speed=APPROACH):
+                m["fighting"] = m["in_reach"] = now
+                m.pop("best", None)
             return
-        if ground_distance(character.position, other.position) > 1.3 * ARMS_LENGTH * scale:
-            # it backed off: follow with the arms up; blows and the fight's clock wait
-            # until it is within reach again (a fight is not over because one ran off)
+        gap = ground_distance(character.position, other.position)
+        if gap > 1.3 * ARMS_LENGTH * scale:
+            # it backed off: step after it with the arms up; blows and the fight's clock
+            # wait, and if it stays out of reach it has got away
             character.pose("grapple")
-            steer_to(character, goal, target, ARMS_LENGTH * scale, speed=CHASE)
+            if now - m["in_reach"] > LET_GO:
+                self.finish(character, goal)
+                return
+            toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
+            character.walk(tuple(toward * FOLLOW * scale**0.5))
             return
+        m["in_reach"] = now
         character.stop()
-        m.pop("best", None)
         m["fought"] = fought = m.get("fought", 0.0) + dt
-        hand = ("left", "right")[int(fought / PUNCH) % 2]
-        spare = ("right", "left")[int(fought / PUNCH) % 2]
-        # a punch aims through the target, so the hand is still fast when it lands, and
-        # starts with a throw: hand and elbow set moving at PUNCH_SPEED (SPEC 3's "set
-        # velocity" node control)
         blow = int(fought / PUNCH)
-        struck = other.node("neck" if blow % 4 < 2 else "spine")
-        side = ("l_", "r_")[hand == "right"]
-        aim = _unit(struck - character.node(side + "shoulder"))
-        character.reach(tuple(struck + THROUGH * scale * aim), hand=hand)
         if m.get("blow") != blow:
             m["blow"] = blow
-            for node in (side + "hand", side + "elbow"):
-                character.set_node_velocity(node, tuple(PUNCH_SPEED * aim))
-        character.pose("grapple", hand=spare)
+            if blow % 3 == 0:  # a shove: both hands to the chest
+                aim = _unit(other.node("spine") - character.node("neck"))
+                for node in ("l_hand", "l_elbow", "r_hand", "r_elbow"):
+                    character.set_node_velocity(node, tuple(SHOVE_SPEED * scale**0.5 * aim))
+            else:  # a blow, one hand then the other: it starts with a throw, hand and elbow set
+                # moving (SPEC 3's "set velocity" node control)
+                side = ("l_", "r_")[blow % 2]
+                struck = other.node("neck" if blow % 3 == 2 else "spine")
+                aim = _unit(struck - character.node(side + "shoulder"))
+                for node in (side + "hand", side + "elbow"):
+                    character.set_node_velocity(node, tuple(PUNCH_SPEED * scale**0.5 * aim))
+        # the hands follow through past what they hit (a hit still moving when it lands)
+        if blow % 3 == 0:
+            chest = other.node("spine")
+            through = _unit(chest - character.node("neck"))
+            character.reach(tuple(chest + THROUGH * scale * through), hand="both")
+        else:
+            hand, spare = (("left", "right"), ("right", "left"))[blow % 2]
+            side = ("l_", "r_")[hand == "right"]
+            struck = other.node("neck" if blow % 3 == 2 else "spine")
+            aim = _unit(struck - character.node(side + "shoulder"))
+            character.reach(tuple(struck + THROUGH * scale * aim), hand=hand)
+            character.pose("grapple", hand=spare)
         if fought >= goal.params["duration"]:
             self.finish(character, goal)
 

@@ -1,11 +1,18 @@
-"""hug: approach with arms out, wrap them round the target, hold, let go (SPEC 4).
+"""hug: approach with arms out, put both arms round the target, hold, let go (SPEC 4).
 
 Goal-driven (``character.hug(target, duration=2)``). Phases, kept in the goal's memory:
-``approach`` (walk up with the arms in the hug pose), ``wrap`` (reach the free hands -
-both, unless one holds something - behind the target's back, grabbing its spine node
-with each as it comes within reach: zero-length links join the hands behind the
-target's torso), ``hold`` (for ``duration`` seconds), then release and done. Arms
-that cannot close round it within ``WRAP_TIME`` fail the goal.
+``approach`` (walk up with the arms in the hug pose, slowing to docking pace), ``wrap``
+(close in at a creep while each hand - a free one, or one holding a small thing such as
+a doll, which goes round holding it - glides round the target's torso to a point on its
+back), ``hold`` (for ``duration`` seconds, standing in touch; a small hugger leans into a
+grown-up's legs), then the arms drop and it is done.
+
+The arms are not joined to the target: the hands are pulled to their places on its back
+and the bodies keep colliding all the while, so an arm wraps round the torso's surface
+instead of sinking into it. A small hugger holds a grown-up round the hips; between
+equals the hugger's arms go round the partner's upper back, the partner's round its
+waist. Arms that get no hand onto the back within ``WRAP_TIME`` fail the goal; one hand
+round by then is a hug (a short arm round a broad body).
 """
 
 from __future__ import annotations
@@ -13,32 +20,48 @@ from __future__ import annotations
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
-from twig_ecs.character import GRAB_REACH
-from twig_ecs.errors import TwigError
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
-from twig_ecs.systems import embrace  # noqa: F401  (registers the partner's answer to a hug)
 from twig_ecs.systems.approach import steer_to
+from twig_ecs.systems.collide import closest_segment_params
+from twig_ecs.systems.embrace import glide  # (importing it registers the partner's answer to a hug)
 
-CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis when the arms start to wrap
-WRAP_TIME = 3.0  # s to get both hands round
+CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
+CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
+WRAP_TIME = 3.0  # s to get the arms round
 REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
 CREEP = 0.3  # m/s of the last steps in, arms going round
-LEAN_IN = 0.22  # m (at 1.75 m tall) the hugger's shoulders lean towards the target
+LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
+BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
-BACK_OF = 0.2  # m (at 1.75 m tall) behind the held torso node that the hands reach for
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
+HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
+# flew at the back would be a blow)
+ROUNDS = (1.1, 0.9, 0.7, 0.55, 0.45, 0.35, 0.3)  # rad past the torso's side, towards its spine, that a
+# hand goes round to: the furthest its arm reaches
+PAST = 0.2  # rad past the torso's side of the way-point a hand in front of it goes round by
+ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
+REACHABLE = 0.95  # of ARM, straight from the shoulder: a point the hand gets to round a torso
+ON_BACK = 0.3  # m: a hand this close to a torso node, beyond it, is on the back (the recorder's too)
+TOUCH = 0.015  # m (at 1.75 m tall): torso this close to the partner's body: in touch, stop closing in
+ARM_NODES = ("l_elbow", "r_elbow", "l_hand", "r_hand")
+FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius
+CLEAR = 1.5  # forearm radii off the surface the hands rest: on the back, not squeezing it
 
 
 @register
 class Hug(Behavior):
-    """Hug a character: arms round its torso, hands joined behind its back."""
+    """Hug a character: both arms round its torso, hands on its back."""
 
     name = "hug"
     goal_driven = True
     params = {"target": None, "duration": 2.0}
     required = ("target",)
     kinds = {"target": "figure", "duration": "seconds"}
+
+    def setup(self) -> None:
+        """Where each hugger's hands are reaching: {(entity, hand): point}."""
+        self.aims: dict[tuple[int, str], np.ndarray] = {}
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release."""
@@ -49,9 +72,9 @@ class Hug(Behavior):
         other = character.scene.entity(target)
         scale = character.scale
         toward = _unit(other.position - character.position)  # on the ground
+        gap = ground_distance(character.position, other.position)
         if phase == "approach":
             character.pose("hug")
-            gap = ground_distance(character.position, other.position)
             if gap <= CLOSE * scale + REACH_IN:
                 m["phase"], m["since"] = "wrap", character.scene.time
             elif gap < DOCK_FROM:
@@ -59,106 +82,144 @@ class Hug(Behavior):
             else:
                 steer_to(character, goal, target, DOCK_FROM - 0.1)
             return
-        if phase == "wrap":
-            now = character.scene.time
-            # close in slowly while the arms go round
-            if ground_distance(character.position, other.position) > CLOSE * scale:
-                character.walk(toward * CREEP)
-            else:
-                character.stop()
-            # the back is held at the torso node nearest the hugger's shoulder height: a
-            # child hugs a grown-up round the waist
-            shoulder_y = character.node("neck")[1] - 0.1 * scale
-            held = m.setdefault(
-                "node", min(("spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
-            )
-            back = other.node(held) + 0.12 * scale * _unit(other.node(held) - character.node("spine"))
-            hands = m.setdefault("hands", [h for h in ("left", "right") if h not in character.holding])
-            if not hands:
-                self.finish(character, goal, False, "both hands are full")
-                return
-            # a hand holding a small thing (a doll) goes round too, holding it
-            for hand in _toy_hands(character, target):
-                character.reach(tuple(back), hand=hand)
-            for hand in hands:
-                if character.holding.get(hand) == target:
-                    continue
-                character.reach(tuple(back), hand=hand)
-                grip = _within_reach(character, other, hand, held, late=now - m["since"] > 0.5 * WRAP_TIME)
-                if grip is not None:
-                    standoff = _surface(other, grip)
-                    try:
-                        character.grab(target, hand=hand, node=grip, standoff=standoff)
-                        character.pose("hug", hand=hand)
-                    except TwigError:
-                        pass
-            if all(character.holding.get(h) == target for h in hands):
-                m["phase"], m["since"] = "hold", now
-            elif now - m["since"] > WRAP_TIME:
-                self.finish(character, goal, False, "could not get its arms round")
-            return
-        # hold: the arms go slack (the grab joints keep the hands on its back) and the
-        # hugger leans in until the two torsos meet; pulling with the arms instead
-        # could wrench the target's torso inside out
-        if ground_distance(character.position, other.position) > 0.8 * CLOSE * scale:
-            character.walk(toward * 0.5 * CREEP)
+        now = character.scene.time
+        # close in slowly while the arms go round until the torso meets the partner's
+        # body; then stand (walking or leaning on into it would push the partner off its
+        # feet: it steps to catch itself and its knee strikes - a blow)
+        near = (CLOSE if other.scale > BIG * scale else CLOSE_EQUAL) * scale
+        if phase == "wrap" and gap > near and torso_gap(character, other) > TOUCH * scale:
+            character.walk(toward * CREEP)
         else:
             character.stop()
-        held = m.get("node", "spine")
-        through = _unit(other.node(held) - character.node("spine"))
-        back = other.node(held) + BACK_OF * scale * through
-        # the hands gripping the torso slide round to its back: each reaches for a
-        # point behind it on its own side (the grip keeps it on the torso's surface)
-        left = np.array([through[2], 0.0, -through[0]])
-        for hand in m["hands"]:
-            side = 1.0 if hand == "left" else -1.0
-            character.reach(tuple(back + left * side * 0.05 * scale), hand=hand)
-        for hand in _toy_hands(character, target):
-            character.reach(tuple(back), hand=hand)
-        character.lean(toward * LEAN_IN * scale)
-        if character.scene.time - m["since"] >= goal.params["duration"]:
+        if phase == "hold" and other.scale > BIG * scale:
+            character.lean(toward * LEAN_IN * scale)  # into a grown-up's legs: they hold firm
+        for hand, point in back_points(character, other).items():
+            glide(self.aims, character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
+        if phase == "wrap":
+            on = hands_on_back(character, other)
+            if on == 2:
+                m["phase"], m["since"] = "hold", now
+            elif now - m["since"] > WRAP_TIME:
+                if on:
+                    m["phase"], m["since"] = "hold", now  # one short arm round a broad body
+                else:
+                    self.finish(character, goal, False, "could not get its arms round")
+            return
+        if now - m["since"] >= goal.params["duration"]:
             self.finish(character, goal)
 
-    def setup(self) -> None:
-        """Whom each character is hugging (to let go of only that one, even after the goal ended)."""
-        self.hugging: dict[int, str] = {}
-
-    def start(self, character, goal: Goal | None) -> None:
-        """Remember the target."""
-        if goal is not None:
-            self.hugging[character.entity] = goal.params["target"]
-
     def stop(self, character, goal: Goal | None) -> None:
-        """Let go (of the one it hugged only: a carried toy stays) and stand up straight."""
+        """Arms down (a carried toy stays in its hand) and stand up straight."""
         character.stoop(None)
-        target = self.hugging.pop(character.entity, None)
-        for hand, held in list(character.holding.items()):
-            if held == target:
-                character.release(hand)
+        character.lean(None)
+        for hand in ("left", "right"):
+            self.aims.pop((character.entity, hand), None)
+        character.pose("hang")
         character.stop()
         character.look_at(None)
 
 
-def _toy_hands(character, target: str) -> list[str]:
-    """The hands holding something other than ``target`` (a doll): they hug holding it."""
-    return [h for h, held in character.holding.items() if held != target]
+def level_of(character, other) -> str:
+    """The node of ``other``'s torso the arms go round: the one nearest the hugger's
+    shoulder height, less a little - a child hugs a grown-up round the hips (pelvis),
+    equals hug round the upper back (neck), over the arms the partner puts round their
+    waist."""
+    shoulder_y = character.node("neck")[1] - 0.1 * character.scale
+    return min(("neck", "spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
 
 
-def _within_reach(character, other, hand: str, held: str, late: bool) -> str | None:
-    """The node of ``other`` that ``hand`` can grip now: the one behind its back, or late
-    in the wrap (a short arm, one hand round a grown-up) the nearer of its hips."""
+def back_points(character, other) -> dict[str, np.ndarray]:
+    """Where each of ``character``'s hands goes on ``other``'s back: round the torso at
+    :func:`level_of`, as far past each side towards the spine as the arms reach
+    (``ROUNDS``), a little more than a forearm's thickness off its surface (its widest capsule there); no
+    higher than the hugger's shoulders."""
+    level = level_of(character, other)
+    centre = other.node(level)
+    through = _unit(centre - character.node("spine"))
+    left = np.array([through[2], 0.0, -through[0]])  # the hugger's left
+    clear = CLEAR * FOREARM * character.scale
+    radius = _surface(other, level) + clear
+    if level == "pelvis":  # the hips stick out sideways beyond the spine's capsule
+        half = 0.5 * float(np.linalg.norm(other.node("l_hip") - other.node("r_hip")))
+        radius = max(radius, half + 0.08 * other.scale + clear)
+    y = min(float(centre[1]), float(character.node("neck")[1]))
+    arm = ARM * character.scale
+    out = {}
+    # as far round towards the spine as the arms will go (a straight line from the
+    # shoulder, less some for the curve round the torso), the same way round on both
+    # sides, from square shoulders: a hand that got further would pull its shoulder
+    # forward and twist the hugger, so the other could get less far still
+    neck = character.node("neck")
+    half = 0.5 * float(np.linalg.norm(character.node("l_shoulder") - character.node("r_shoulder")))
+    for angle in ROUNDS:
+        point = centre + radius * (np.cos(angle) * left + np.sin(angle) * through)
+        point[1] = y
+        if float(np.linalg.norm(point - (neck + half * left))) <= REACHABLE * arm:
+            break
+    for hand, side in (("left", 1.0), ("right", -1.0)):
+        point = centre + radius * (np.cos(angle) * left * side + np.sin(angle) * through)
+        point[1] = y
+        out[hand] = point
+    return out
+
+
+def round_the_side(character, other, hand: str, point: np.ndarray) -> np.ndarray:
+    """Where ``hand`` heads for on its way to ``point`` on ``other``'s back: while it is
+    still in front of ``other``'s torso (seen from ``character``), a point out beside the
+    torso on the hand's side, a little past its widest (``PAST``), at ``point``'s height:
+    an arm goes round a body, not into it."""
     palm = character.node(("l_hand", "r_hand")[hand == "right"])
-    reach = GRAB_REACH * character.scale
-    candidates = (held, "l_hip", "r_hip") if late and held == "pelvis" else (held,)
-    if late and held == "spine":
-        candidates = (held, "l_shoulder", "r_shoulder")
-    best = min(candidates, key=lambda n: float(np.linalg.norm(palm - other.node(n))))
-    return best if np.linalg.norm(palm - other.node(best)) < reach else None
+    centre = other.node(level_of(character, other))
+    through = _unit(centre - character.node("spine"))
+    if float((palm - centre) @ through) >= 0.0:
+        return point
+    left = np.array([through[2], 0.0, -through[0]])
+    side = 1.0 if hand == "left" else -1.0
+    out = float(np.linalg.norm((point - centre) * np.array([1.0, 0.0, 1.0])))
+    beside = centre + 1.15 * out * (np.cos(PAST) * left * side + np.sin(PAST) * through)
+    beside[1] = point[1]
+    return beside
+
+
+def hands_on_back(holder, held) -> int:
+    """How many of ``holder``'s hands are on ``held``'s back: beyond its torso (the pelvis,
+    spine or neck node nearest the hand) as seen from ``holder``'s spine, and within
+    ON_BACK of that node."""
+    count = 0
+    for hand in ("l_hand", "r_hand"):
+        palm = holder.node(hand)
+        node = min(("pelvis", "spine", "neck"), key=lambda n: float(np.linalg.norm(palm - held.node(n))))
+        centre = held.node(node)
+        through = _unit(centre - holder.node("spine"))
+        off = palm - centre
+        if float(np.linalg.norm(off)) <= ON_BACK and float(off @ through) > 0.0:
+            count += 1
+    return count
+
+
+def torso_gap(character, other) -> float:
+    """Surface distance (m) from ``character``'s torso capsules (lower and upper spine) to
+    the nearest collidable capsule of ``other``'s body, its arms left out (a partner's arm
+    coming round to hold it is no wall to stop at)."""
+    links, pos = other.scene.state.links, other.scene.state.nodes.pos
+    n = links.count
+    mine = [(character.node(a), character.node(b), r * character.scale)
+            for a, b, r in (("pelvis", "spine", 0.12), ("spine", "neck", 0.13))]  # fmt: skip
+    theirs = np.flatnonzero((links.body[:n] == other.body.index) & ((links.flags[:n] & LINK_COLLIDE) != 0))
+    names = other.node_names
+    arm = {other.body.node_start + names.index(a) for a in ARM_NODES if a in names}
+    theirs = [j for j in theirs if int(links.a[j]) not in arm and int(links.b[j]) not in arm]
+    best = np.inf
+    for j in theirs:
+        c, d, rj = pos[links.a[j]], pos[links.b[j]], float(links.radius[j])
+        for a, b, ri in mine:
+            s, t = closest_segment_params(a, b, c, d)
+            best = min(best, float(np.linalg.norm(a + s * (b - a) - (c + t * (d - c)))) - ri - rj)
+    return best
 
 
 def _surface(other, node: str) -> float:
-    """How far from ``other``'s ``node`` a hand rests: on the surface of the thickest
-    capsule there (the arm ignores what it holds, so the forearm may sink in a little)."""
+    """The radius of the thickest capsule at ``other``'s ``node`` (m)."""
     links = other.scene.state.links
     collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
     at = other._row(node)

@@ -1,9 +1,10 @@
 """withdraw: the pain reflex - a fast, open-loop retreat from whatever hurt (SPEC 4).
 
-Reads this step's ``pain`` events; when a character is hurt it turns away from the
-body that hurt it and, for ``DURATION`` seconds, backs off at ``SPEED`` with its arms
-up and its eyes on the source. Its activation beats any commanded goal, so it wins at
-once; afterwards the interrupted goal carries on.
+Reads this step's ``pain`` events; when a character is hurt it staggers back from the
+body that hurt it - for ``DURATION`` seconds it backs off at ``SPEED`` with its arms up
+and its eyes on the source - then turns its back on it and walks away for ``TURN_AWAY``
+seconds. Its activation beats any commanded goal, so it wins at once; afterwards the
+interrupted goal carries on.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from twig_ecs.components import Character
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
+TURN_AWAY = 1.2  # s of walking away afterwards, its back to the source
+AWAY_PACE = 0.9  # m/s (at 1.75 m tall, by the root of scale like SPEED)
 ACTIVATION = 1.3  # beats goals (0.8) by more than select_behavior's URGENT margin
 
 
@@ -29,6 +32,7 @@ class Withdraw(Behavior):
     def setup(self) -> None:
         """Remember, per character entity, when its retreat ends and which way it goes."""
         self.until: dict[int, float] = {}
+        self.stagger_until: dict[int, float] = {}
         self.away: dict[int, np.ndarray] = {}
         self.source: dict[int, int] = {}
 
@@ -44,7 +48,8 @@ class Withdraw(Behavior):
             away = (me.position - there) * np.array([1.0, 0.0, 1.0])
             norm = float(np.linalg.norm(away))
             self.away[event.body] = away / norm if norm > 1e-6 else -me.facing
-            self.until[event.body] = scene.time + DURATION
+            self.stagger_until[event.body] = scene.time + DURATION
+            self.until[event.body] = scene.time + DURATION + TURN_AWAY
             self.source[event.body] = event.source_body
         super().process(dt)
 
@@ -59,12 +64,18 @@ class Withdraw(Behavior):
         return ACTIVATION if self.until.get(character.entity, -1.0) > self.scene.time else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
-        """Back off, arms up, watching the source."""
-        character.walk(self.away[character.entity] * SPEED * character.scale**0.5)
-        character.pose("grapple")
-        source = self.scene.name_of(self.source[character.entity])
-        if source and source != character.name:
-            character.look_at(source)
+        """Back off, arms up, watching the source; then turn away and walk off."""
+        away = self.away[character.entity]
+        if self.stagger_until.get(character.entity, -1.0) > self.scene.time:
+            character.walk(away * SPEED * character.scale**0.5)
+            character.pose("grapple")
+            source = self.scene.name_of(self.source[character.entity])
+            if source and source != character.name:
+                character.look_at(source)
+            return
+        character.walk(away * AWAY_PACE * character.scale**0.5)  # facing where it goes
+        character.pose("hang")
+        character.look_at(None)
 
     def stop(self, character, goal) -> None:
         """Stand, arms down."""

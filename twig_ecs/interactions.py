@@ -13,6 +13,10 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
   hugger's back (a hand on a back: beyond the torso as seen from the other, within 0.3 m
   of its nearest torso node), the pain either side felt from the other during the hug goal, and
   the deepest an arm (upper arm, and forearm short of the hand) sank into the partner;
+- **fights** (grapple goals, once the fighter has closed in): the share of frames the
+  two are within arm's reach, of those the share they face each other (each one's
+  facing within 60 degrees of the other), and how far the victim got pushed or went
+  from where the fight began;
 - **the yard** (a scene fenced round): how far any free node got beyond the fences'
   box, and which bodies did;
 - **carried things**: the largest link error of a body a character holds, how deep it
@@ -34,15 +38,17 @@ import numpy as np
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
 from twig_ecs.systems.collide import closest_segment_params
+from twig_ecs.systems.hug import hands_on_back
 
 SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
 SPIN_UP = 0.005  # rad/s gained in one step by a turning body: a push (its bearings only slow it)
 MERGE = 0.15  # s: ball speed-ups closer together than this are one kick
 TOUCH_GAP = 0.03  # m: a leg this close to the ball touched it
 HAND_GAP = 0.06  # m: a hand this close to a bar is on it
-BACK_REACH = 0.3  # m: a hand this close to the hugger's spine, beyond it, is on its back
 RELEASE_MEMORY = 1.0  # s after letting go that a dropped thing still counts as held
 DEPTH_EVERY = 6  # steps between samples of a carried thing's depth in its carrier (10 Hz)
+FIGHT_REACH = 0.8  # m (at 1.75 m tall, the fighter's): pelvis to pelvis within arm's reach
+FACING = 0.5  # cosine: facing within 60 degrees of the other
 FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) holding hand
 LEGS = (("l_hip", "l_knee"), ("r_hip", "r_knee"), ("l_knee", "l_foot"), ("r_knee", "r_foot"))
 ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
@@ -71,6 +77,17 @@ class _Hug:
     partner_hand: int = 0
     max_limb_depth: float = 0.0
     max_pain: float = 0.0
+
+
+@dataclass(slots=True)
+class _Fight:
+    """Running figures of the fights between one fighter and its target."""
+
+    frames: int = 0
+    in_reach: int = 0
+    face_to_face: int = 0
+    max_shift: float = 0.0
+    start: np.ndarray | None = None
 
 
 @dataclass(slots=True)
@@ -119,6 +136,7 @@ class InteractionRecorder:
         self._spin = {r: 0.0 for r in self.rides}
         self._hand_gap = {r: math.inf for r in self.rides}
         self.hugs: dict[tuple[str, str], _Hug] = {}
+        self.fights: dict[tuple[str, str], _Fight] = {}
         self.carried: dict[str, _Carried] = {}
         self._let_go: dict[tuple[str, str], float] = {}  # (holder, thing) -> time released
         self._held_before: dict[str, set[str]] = {}
@@ -166,6 +184,7 @@ class InteractionRecorder:
                 self.pushes[name].append(_Event(scene.time, gap, by))
             self._spin[name], self._hand_gap[name] = spin, gap_now
         self._measure_hugs(chars)
+        self._measure_fights(chars)
         self._measure_carried(chars)
         if self.yard is not None:
             self._measure_yard()
@@ -250,10 +269,36 @@ class InteractionRecorder:
             if phase != "hold":
                 continue
             figures.frames += 1
-            if self._hands_on_back(me, partner) == 2:
+            if hands_on_back(me, partner) == 2:
                 figures.both_arms += 1
-            if hasattr(partner, "holding") and self._hands_on_back(partner, me) >= 1:
+            if hasattr(partner, "holding") and hands_on_back(partner, me) >= 1:
                 figures.partner_hand += 1
+
+    def _measure_fights(self, chars) -> None:
+        scene = self.scene
+        for me in chars:
+            goal = next((g for g in me.goals if g.behavior == "grapple"), None)
+            key = None if goal is None else (me.name, goal.params["target"])
+            for pair, figures in self.fights.items():
+                if pair[0] == me.name and pair != key:
+                    figures.start = None  # that fight is over: the next one starts afresh
+            if goal is None or "fighting" not in goal.memory or key[1] not in scene.entity_names:
+                continue
+            other = scene.entity(key[1])
+            figures = self.fights.setdefault(key, _Fight())
+            if figures.start is None:
+                figures.start = other.position
+            figures.frames += 1
+            shift = float(np.hypot(*(other.position - figures.start)[[0, 2]]))
+            figures.max_shift = max(figures.max_shift, shift)
+            apart = (other.position - me.position) * np.array([1.0, 0.0, 1.0])
+            gap = float(np.linalg.norm(apart))
+            if gap > FIGHT_REACH * me.scale:
+                continue
+            figures.in_reach += 1
+            toward = apart / max(gap, 1e-9)
+            if hasattr(other, "facing") and me.facing @ toward > FACING and -(other.facing @ toward) > FACING:
+                figures.face_to_face += 1
 
     def _arm_depth(self, me, other) -> float:
         """How deep ``me``'s arms (short of the hands) sink into ``other``'s colliders (m)."""
@@ -269,23 +314,6 @@ class InteractionRecorder:
                 gap = segment_gap(p, q, r, pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))
                 deepest = max(deepest, -gap)
         return deepest
-
-    @staticmethod
-    def _hands_on_back(holder, held) -> int:
-        """How many of ``holder``'s hands are on ``held``'s back: beyond its torso (the
-        pelvis, spine or neck node nearest the hand) as seen from ``holder``'s spine, and
-        within BACK_REACH of that node."""
-        count = 0
-        for hand in ("l_hand", "r_hand"):
-            palm = holder.node(hand)
-            node = min(("pelvis", "spine", "neck"), key=lambda n: float(np.linalg.norm(palm - held.node(n))))
-            centre = held.node(node)
-            through = (centre - holder.node("spine")) * np.array([1.0, 0.0, 1.0])
-            through /= max(float(np.linalg.norm(through)), 1e-9)
-            off = palm - centre
-            if float(np.linalg.norm(off)) <= BACK_REACH and float(off @ through) > 0.0:
-                count += 1
-        return count
 
     def _measure_carried(self, chars) -> None:
         scene = self.scene
@@ -315,7 +343,10 @@ class InteractionRecorder:
                 thing = scene.entity(name)
                 figures.max_link_error = max(figures.max_link_error, self._link_error(thing.body.index))
                 if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
-                    figures.max_depth = max(figures.max_depth, self._depth(thing.body.index, me.body.index))
+                    hands = tuple(me._row(("l_hand", "r_hand")[h == "right"])
+                                  for h, n in me.holding.items() if n == name)  # fmt: skip
+                    depth = self._depth(thing.body.index, me.body.index, hands)
+                    figures.max_depth = max(figures.max_depth, depth)
 
     def _anchored(self, name: str) -> bool:
         """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""
@@ -336,14 +367,20 @@ class InteractionRecorder:
         error = np.where(rope, np.maximum(error, 0.0), np.abs(error))
         return float(error.max()) if len(error) else 0.0
 
-    def _depth(self, body_a: int, body_b: int) -> float:
-        """Deepest overlap (m) between the collidable links of two bodies."""
+    def _depth(self, body_a: int, body_b: int, hands: tuple[int, ...] = ()) -> float:
+        """Deepest overlap (m) between the collidable links of two bodies; a link of
+        ``body_b`` ending at one of the node rows ``hands`` (a holding hand) counts only
+        its FOREARM_SHARE from the other end: the hand itself holds the thing."""
         lk, pos = self.scene.state.links, self.scene.state.nodes.pos
         deepest = 0.0
         for i in self._collidable_links(body_a):
             for j in self._collidable_links(body_b):
-                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]),
-                                  pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))  # fmt: skip
+                p, q = pos[lk.a[j]], pos[lk.b[j]]
+                if int(lk.b[j]) in hands:
+                    q = p + FOREARM_SHARE * (q - p)
+                elif int(lk.a[j]) in hands:
+                    p = q + FOREARM_SHARE * (p - q)
+                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]), p, q, float(lk.radius[j]))
                 deepest = max(deepest, -gap)
         return deepest
 
@@ -376,6 +413,15 @@ class InteractionRecorder:
                 "max_limb_depth_m": round(h.max_limb_depth, 4),
             }
         out["hugs"] = hugs
+        out["fights"] = {
+            f"{me}->{target}": {
+                "frames": f.frames,
+                "in_reach_fraction": round(f.in_reach / f.frames, 3) if f.frames else None,
+                "face_to_face_fraction": round(f.face_to_face / f.in_reach, 3) if f.in_reach else None,
+                "max_victim_shift_m": round(f.max_shift, 3),
+            }
+            for (me, target), f in self.fights.items()
+        }
         if self.yard is not None:
             out["yard"] = {
                 "low_xz": [round(float(v), 3) for v in self.yard[0]],

@@ -381,13 +381,11 @@ class PhysicsState:
                     if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
                         mask |= 1 << kk
                 col.mask[i] = np.uint64(mask)
-        # a held thing and the hand that holds it do not push each other apart; nor does
-        # a carried thing (not a character) collide with its carrier anywhere, else a
-        # child steps on the doll it carries, pins it under a planted foot and is pulled
-        # over by its own arm
+        # a held thing and the arm that holds it do not push each other apart; the rest
+        # of the carrier's body does (a carried doll swings against the legs, not through
+        # them: it is held high enough that no foot steps on it)
         grabs = np.flatnonzero(lk.flags[: lk.count] & LINK_GRAB)
         ch = self.characters
-        characters = set(ch.body[: ch.count].tolist())
         # the whole arm that holds something, not just the hand: an arm round a body
         # (a hug) is squeezed between the hand's joint and the shoulder otherwise
         elbow_of = {}
@@ -395,23 +393,19 @@ class PhysicsState:
             for hand, elbow in ((ROLES.index("l_hand"), ROLES.index("l_elbow")),
                                 (ROLES.index("r_hand"), ROLES.index("r_elbow"))):  # fmt: skip
                 elbow_of[int(ch.nodes[c, hand])] = int(ch.nodes[c, elbow])
-        held_pairs = [(int(lk.a[g]), int(lk.b[g]), True) for g in grabs]
-        held_pairs += [(a, b, False) for a, b, _ in self.released]
-        for a, b, live in held_pairs:
+        held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
+        held_pairs += [(a, b) for a, b, _ in self.released]
+        for a, b in held_pairs:
             ba, bb = int(n.body[a]), int(n.body[b])
             arm_a = {a, elbow_of.get(a, a)}
-            arm_b = {b, elbow_of.get(b, b)}
+            # the held end is an arm too only when it is a hand (hand in hand); the
+            # capsules at a held doll's middle still meet the carrier's body
+            arm_b = {b, elbow_of[b]} if b in elbow_of else set()
             for c in range(total):
                 if int(col.a[c]) in arm_a or int(col.b[c]) in arm_a:
                     _ignore(col.ignore, c, bb)
                 elif int(col.a[c]) in arm_b or int(col.b[c]) in arm_b:
                     _ignore(col.ignore, c, ba)
-            if not live:
-                continue
-            for holder, held in ((ba, bb), (bb, ba)):
-                if held not in characters:
-                    for c in np.flatnonzero(col.body[:total] == holder):
-                        _ignore(col.ignore, c, held)
         self.version += 1
 
     def release_grace(self, a: int, b: int, steps: int) -> None:
