@@ -137,7 +137,6 @@ def test_same_seed_gives_the_same_state_hash(scenes):
         assert hashes[0] != fresh.state_hash()  # it did move
 
 
-
 def _row(body, node: str) -> int:
     return body.body.node_index(node)
 
