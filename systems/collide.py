@@ -252,16 +252,16 @@ def _felt_weight(inv_mass, flags, i):
 
 
 @njit(cache=True)
-def resolve_contacts(pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by,
-                     record, dt, static_only=False):  # fmt: skip
+def resolve_contacts(
+    pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, record, dt
+):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
 
     Each capsule's end nodes move in proportion to their share of the contact point
     (s, 1-s) and inverse mass, so the correction is equal and opposite (momentum kept).
     With ``record`` set, the impact energy 1/2 mu u^2 (u: closing speed along the normal,
     mu: reduced mass at the contact) is written to the tactile record of the struck side
-    (the one that contributed less of the closing speed). With ``static_only`` set, only
-    pairs with one side fixed (both its nodes locked) are resolved. Returns the
+    (the one that contributed less of the closing speed). Returns the
     largest penetration (m) met in this pass.
     """
     worst = 0.0
@@ -272,8 +272,6 @@ def resolve_contacts(pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_p
         b = col_b[i]
         c = col_a[j]
         d = col_b[j]
-        if static_only and not (flags[a] & flags[b] & NODE_LOCKED or flags[c] & flags[d] & NODE_LOCKED):
-            continue
         s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
         px = pos[a, 0] + s * (pos[b, 0] - pos[a, 0])
         py = pos[a, 1] + s * (pos[b, 1] - pos[a, 1])
@@ -415,15 +413,7 @@ def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_
         )
         project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
         project_links(pos, inv_mass, flags, *cargs[8:13])
-    project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
-    # against static things (fences, walls: every node locked) contacts have the last word:
-    # a joint stop that pushed a knee back into a fence panel would otherwise leave it
-    # there, a fight the stop won pass after pass until the knee was through (a child's
-    # knee past the fence line). What this leaves of the stop's fault is put back next
-    # step without gaining speed.
-    resolve_contacts(
-        pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, False, dt, True
-    )
+    project_limits(pos, prev, inv_mass, flags, *cargs[13:23])  # limits have the last word
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):
