@@ -135,3 +135,74 @@ def test_same_seed_gives_the_same_state_hash(scenes):
     assert hashes[0] == hashes[1]
     with Scene.load("schoolyard", seed=7) as fresh:
         assert hashes[0] != fresh.state_hash()  # it did move
+
+
+def _row(body, node: str) -> int:
+    return body.body.node_index(node)
+
+
+def _kinetic_energy(scene) -> float:
+    n = scene.state.nodes
+    v = (n.pos - n.prev)[: n.count] / scene.dt
+    return 0.5 * float((n.mass[: n.count] * (v**2).sum(axis=1)).sum())
+
+
+def _fold_right_knee_sideways(body, hip_to_foot: float) -> np.ndarray:
+    """Fold the right leg, its foot ``hip_to_foot`` m below the hip, with the knee pointing
+    to the body's right instead of forwards: a bend far past one edge of the knee's arc,
+    both link lengths kept. Moves positions only; returns the body's left (unit)."""
+    pos = body.scene.state.nodes.pos
+    hip, knee, foot = (_row(body, n) for n in ("r_hip", "r_knee", "r_foot"))
+    thigh = np.linalg.norm(pos[knee] - pos[hip])
+    shin = np.linalg.norm(pos[foot] - pos[knee])
+    left = pos[_row(body, "l_hip")] - pos[hip]
+    left /= np.linalg.norm(left)
+    down = np.array([0.0, -1.0, 0.0])
+    along = (thigh**2 - shin**2 + hip_to_foot**2) / (2.0 * hip_to_foot)
+    pos[foot] = pos[hip] + hip_to_foot * down
+    pos[knee] = pos[hip] + along * down - math.sqrt(thigh**2 - along**2) * left
+    return left
+
+
+def test_a_knee_folded_far_past_its_limit_is_put_back_without_gaining_speed(zero_g_scene):
+    # the 300-crowd soak's blow-ups: a knee found deep past its arc (a folded leg turned
+    # sideways) was moved straight onto the edge's plane, in towards the hip-foot line;
+    # the links pushed it out again and each pass turned the fight into speed (a folded
+    # knee reached 35 m/s within one step). A joint stop must never add energy.
+    from twig_ecs.systems.constrain import constraint_args, solve_constraints
+
+    scene = zero_g_scene
+    body = scene.spawn("humanoid", name="folded", position=(0.0, 1.0, 0.0), facing=0)
+    scene.step()
+    left = _fold_right_knee_sideways(body, hip_to_foot=0.3)
+    nodes = scene.state.nodes
+    nodes.prev[: nodes.count] = nodes.pos[: nodes.count]  # at rest
+    solve_constraints(scene.settings.iterations, *constraint_args(scene.state))
+    speed = np.linalg.norm(nodes.pos - nodes.prev, axis=1)[: nodes.count] / scene.dt
+    assert speed.max() < 0.5, f"the repair flung a node at {speed.max():.1f} m/s"
+    # and it was repaired: the knee bends forwards again, the links keep their lengths
+    hip, knee, foot = (body.node(n) for n in ("r_hip", "r_knee", "r_foot"))
+    axis = (foot - hip) / np.linalg.norm(foot - hip)
+    bend = (knee - hip) - np.dot(knee - hip, axis) * axis
+    forward = np.cross(left, body.node("neck") - body.node("pelvis"))
+    assert np.dot(bend, forward) > 0.0, "the knee should bend forwards"
+    assert abs(np.dot(bend, left)) < 0.35 * np.linalg.norm(bend), "the knee should bend forwards"
+    assert scene.state.link_errors().max() < 0.05
+
+
+def test_a_knee_driven_into_its_limit_stops_without_bouncing(zero_g_scene):
+    # a stop takes out the speed into the fault and gives none back: a folded knee swinging
+    # outwards at 3 m/s, past the edge of its arc, leaves the body with no more energy
+    from twig_ecs.systems.constrain import constraint_args, solve_constraints
+
+    scene = zero_g_scene
+    body = scene.spawn("humanoid", name="kneed", position=(0.0, 1.0, 0.0), facing=0)
+    scene.step()
+    nodes = scene.state.nodes
+    left = _fold_right_knee_sideways(body, hip_to_foot=0.6)
+    nodes.prev[: nodes.count] = nodes.pos[: nodes.count]
+    knee = _row(body, "r_knee")
+    nodes.prev[knee] += 3.0 * scene.dt * left  # moving to the body's right, into the fault
+    before = _kinetic_energy(scene)
+    solve_constraints(scene.settings.iterations, *constraint_args(scene.state))
+    assert _kinetic_energy(scene) <= 1.01 * before
