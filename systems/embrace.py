@@ -15,7 +15,7 @@ from __future__ import annotations
 import esper
 import numpy as np
 
-from twig_ecs.behavior import Behavior, Mind, register
+from twig_ecs.behavior import Behavior, Mind, goal_targets, register
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -60,15 +60,10 @@ def held_at(character, hugger) -> str:
 
 def huggers_of(scene) -> dict[int, tuple[int, str]]:
     """Who is hugging whom right now: {hugged entity: (hugger entity, hug phase)}."""
-    out: dict[int, tuple[int, str]] = {}
-    for entity, mind in scene.goal_holders():
-        goal = mind.goal
-        if goal is None or goal.behavior != "hug":
-            continue
-        target = goal.params.get("target")
-        if target in scene.entity_names:
-            out[scene.entity(target).entity] = (entity, goal.memory.get("phase", "approach"))
-    return out
+    return {
+        hugged: (hugger, goal.memory.get("phase", "approach"))
+        for hugged, (hugger, goal) in goal_targets(scene, "hug").items()
+    }
 
 
 @register

@@ -12,7 +12,7 @@ from __future__ import annotations
 import esper
 import numpy as np
 
-from twig_ecs.behavior import Behavior, Mind, register
+from twig_ecs.behavior import Behavior, Mind, goal_targets, register
 from twig_ecs.components import Character, Feisty
 from twig_ecs.steering import ground_distance
 
@@ -57,15 +57,7 @@ class Fight(Behavior):
 
 def attackers_of(scene) -> dict[int, int]:
     """Who is fighting whom right now: {target entity: fighter entity} (grapple goals)."""
-    out: dict[int, int] = {}
-    for entity, mind in scene.goal_holders():
-        goal = mind.goal
-        if goal is None or goal.behavior != "grapple":
-            continue
-        target = goal.params.get("target")
-        if target in scene.entity_names:
-            out[scene.entity(target).entity] = entity
-    return out
+    return {target: fighter for target, (fighter, _) in goal_targets(scene, "grapple").items()}
 
 
 @register

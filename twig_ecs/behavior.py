@@ -211,6 +211,22 @@ PARAM_KINDS = {
 REGISTRY: dict[str, type[Behavior]] = {}
 
 
+def goal_targets(scene, behavior: str) -> dict[int, tuple[int, Goal]]:
+    """The live targets of one goal behaviour: {target entity: (goal holder entity, goal)}.
+
+    Reads the scene's goal holders; a goal whose target no longer exists is left out.
+    """
+    out: dict[int, tuple[int, Goal]] = {}
+    for entity, mind in scene.goal_holders():
+        goal = mind.goal
+        if goal is None or goal.behavior != behavior:
+            continue
+        target = goal.params.get("target")
+        if target in scene.entity_names:
+            out[scene.entity(target).entity] = (entity, goal)
+    return out
+
+
 def register(cls: type[Behavior]) -> type[Behavior]:
     """Make a behaviour kind known by its ``name`` (a class decorator)."""
     if not cls.name:
