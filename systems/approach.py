@@ -14,6 +14,7 @@ import weakref
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
 
@@ -172,12 +173,18 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
 class Approach(Behavior):
     """Walk to a target (an entity or a point) and stop at a distance from it."""
 
-    name = "approach"
-    goal_driven = True
-    params = {"target": None, "stop_distance": 0.6, "direction": None, "arms": None, "curl": True}
-    required = ("target",)
-    kinds = {"target": "place", "stop_distance": "metres", "direction": "vector",
-             "arms": (None, "reach", "hug", "grapple"), "curl": "flag"}  # fmt: skip
+    schema = GoalSchema(
+        "approach",
+        "Walk to an entity or a point round obstacles and stop stop_distance m off it.",
+        (
+            Param("target", "target", doc="the entity or point to walk to"),
+            metres("stop_distance", 0.6, "how far from the target to stop"),
+            Param("direction", "vector", None, doc="a ground vector to arrive along (null: from anywhere)"),
+            Param("arms", "choice", None, choices=("reach", "hug", "grapple"),
+                  doc="the arms on the way: reach for it, or hold the hug or grapple pose (null: swing)"),
+            Param("curl", "bool", True, doc="steer sideways round obstacles (false: straight at it)"),
+        ),
+    )  # fmt: skip
 
     def act(self, character, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Steer; look at the target; hold the arms as asked (reach, hug or grapple)."""

@@ -17,6 +17,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
+from twig_ecs.goals import GoalSchema, Param, metres, speed
 from twig_ecs.kernelmath import HANG
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import NODE_LOCKED
@@ -58,11 +59,15 @@ def fetch(character, goal: Goal, target: str, hand: str) -> bool:
 class Carry(Behavior):
     """Fetch a thing and carry it (somewhere)."""
 
-    name = "carry"
-    goal_driven = True
-    params = {"target": None, "to": None, "hand": "right"}
-    required = ("target",)
-    kinds = {"target": "entity", "to": "place", "hand": ("left", "right")}
+    schema = GoalSchema(
+        "carry",
+        "Fetch a thing in one hand, then carry it to a point or an entity.",
+        (
+            Param("target", "name", doc="the thing to fetch"),
+            Param("to", "target", None, doc="where to take it (null: pick it up and stop)"),
+            Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds it"),
+        ),
+    )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk to the destination."""
@@ -90,11 +95,16 @@ class Carry(Behavior):
 class Drag(Behavior):
     """Grab a character or ragdoll and walk away pulling it."""
 
-    name = "drag"
-    goal_driven = True
-    params = {"target": None, "distance": 5.0, "hand": "right", "speed": 1.0}
-    required = ("target",)
-    kinds = {"target": "entity", "distance": "metres", "hand": ("left", "right"), "speed": "speed"}
+    schema = GoalSchema(
+        "drag",
+        "Grab a character, ragdoll or thing and walk distance m straight away from it, pulling it.",
+        (
+            Param("target", "name", doc="what to drag"),
+            metres("distance", 5.0, "how far to walk away pulling it"),
+            Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds it"),
+            speed("speed", 1.0, "the walking pace while pulling"),
+        ),
+    )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Fetch, then walk away from where it lay."""

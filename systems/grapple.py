@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
 
@@ -31,11 +32,14 @@ LET_GO = 1.5  # s out of reach after which the target has got away: the fight is
 class Grapple(Behavior):
     """Fight: arms bash the target in turns."""
 
-    name = "grapple"
-    goal_driven = True
-    params = {"target": None, "duration": 3.0}
-    required = ("target",)
-    kinds = {"target": "figure", "duration": "seconds"}
+    schema = GoalSchema(
+        "grapple",
+        "Close to arm's length and shove and hit the target for duration s.",
+        (
+            Param("target", "name", figure=True, doc="whom to fight"),
+            seconds("duration", 3.0, "how long to fight within reach"),
+        ),
+    )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Close in, then shove and punch in turn, square to the target."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
@@ -53,11 +54,14 @@ CLEAR = 1.5  # forearm radii off the surface the hands rest: on the back, not sq
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
 
-    name = "hug"
-    goal_driven = True
-    params = {"target": None, "duration": 2.0}
-    required = ("target",)
-    kinds = {"target": "figure", "duration": "seconds"}
+    schema = GoalSchema(
+        "hug",
+        "Walk up to a character, put both arms round it for duration s, let go.",
+        (
+            Param("target", "name", figure=True, doc="whom to hug"),
+            seconds("duration", 2.0, "how long the arms stay round it"),
+        ),
+    )
 
     def setup(self) -> None:
         """Where each hugger's hands are reaching: {(entity, hand): point}."""

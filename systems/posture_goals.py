@@ -9,6 +9,8 @@ another goal is queued).
 from __future__ import annotations
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.character import GESTURES
+from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.steering import ground_distance
 from twig_ecs.systems.approach import steer_to
 
@@ -20,10 +22,12 @@ STOOD = 0.05  # fraction of standing height
 class SitDown(Behavior):
     """Sit on the ground, or walk to a seat and sit on it."""
 
-    name = "sit"
-    goal_driven = True
-    params = {"on": None}
-    kinds = {"on": "entity"}
+    schema = GoalSchema(
+        "sit",
+        "Sit on the ground, or walk to a seat entity and sit on it.",
+        (Param("on", "name", None, doc="the seat (null: the ground where it stands)"),),
+        handle_method=False,  # handle.sit is the immediate control: do("sit", ...) queues the goal
+    )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach the seat if needed, then sit; done once the pelvis rests."""
@@ -46,8 +50,7 @@ class SitDown(Behavior):
 class StandUp(Behavior):
     """Stand up (from sitting, or from limp)."""
 
-    name = "stand"
-    goal_driven = True
+    schema = GoalSchema("stand", "Stand up (from sitting, or from limp).", handle_method=False)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Rise; done once standing at full height."""
@@ -64,10 +67,11 @@ class StandUp(Behavior):
 class Freeze(Behavior):
     """Hold perfectly still: every node of the body locked where it is."""
 
-    name = "freeze"
-    goal_driven = True
-    params = {"duration": None}
-    kinds = {"duration": "seconds"}
+    schema = GoalSchema(
+        "freeze",
+        "Hold every node still for duration s (null: until the next goal).",
+        (seconds("duration", None, "how long to hold still (null: until another goal is queued)"),),
+    )
 
     def start(self, character, goal: Goal | None) -> None:
         """Lock every node."""
@@ -91,11 +95,16 @@ class Freeze(Behavior):
 class Gesture(Behavior):
     """Wave or point for a while."""
 
-    name = "gesture"
-    goal_driven = True
-    params = {"name": None, "target": None, "duration": 2.0}
-    required = ("name",)
-    kinds = {"name": ("wave", "point"), "target": "place", "duration": "seconds"}
+    schema = GoalSchema(
+        "gesture",
+        "Wave, or point at a target, for duration s.",
+        (
+            Param("name", "choice", choices=GESTURES, doc="the gesture"),
+            Param("target", "target", None, doc="what to point at (an entity or a point)"),
+            seconds("duration", 2.0, "how long to keep it up"),
+        ),
+        handle_method=False,  # handle.gesture is the immediate control: do("gesture", ...) is the goal
+    )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Hold the gesture; done after the duration."""

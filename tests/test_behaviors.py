@@ -212,7 +212,7 @@ def test_goal_commands_check_their_arguments(pair):
         a.hug("c")
     with pytest.raises(TwigError, match="cannot hug itself"):
         a.hug("a")
-    with pytest.raises(TwigError, match="approach arms must be"):
+    with pytest.raises(TwigError, match="approach: 'arms' must be one of reach, hug, grapple"):
         a.approach("b", arms="tickle")
 
 

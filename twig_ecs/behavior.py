@@ -20,9 +20,11 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import esper
 
+from twig_ecs.character import add_goal_method
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Event
+from twig_ecs.goals import GoalSchema
 from twig_ecs.system import System
 
 if TYPE_CHECKING:
@@ -110,14 +112,11 @@ class Behavior(System):
     """
 
     goal_driven: ClassVar[bool] = False
-    #: Parameters a goal of this kind accepts, with their defaults.
-    params: ClassVar[dict[str, Any]] = {}
-    #: The parameters a goal must be given.
-    required: ClassVar[tuple[str, ...]] = ()
-    #: What each parameter must be, checked when the goal is queued (see :data:`PARAM_KINDS`):
-    #: ``"entity"``, ``"figure"``, ``"place"``, ``"seconds"``, ``"metres"``, ``"speed"``, ``"vector"``,
-    #: ``"flag"`` or a tuple of allowed values. Unlisted parameters are not checked.
-    kinds: ClassVar[dict[str, Any]] = {}
+    #: A goal behaviour's schema (:class:`~twig_ecs.goals.GoalSchema`): the goal's name,
+    #: parameters with kinds, defaults and docs. Declaring one makes the behaviour
+    #: goal-driven and names it; the handle method, the checks, the RPC method and the docs
+    #: tables are all derived from it.
+    schema: ClassVar[GoalSchema | None] = None
     #: For a behaviour that characters *have* (rather than are commanded to do): the
     #: component type holding its per-character parameters (a dataclass). Only
     #: characters with that component are considered; scenes attach it with
@@ -129,6 +128,18 @@ class Behavior(System):
     #: A batch behaviour acts for all the characters it wins in one call,
     #: :meth:`act_batch`, over arrays (crowds); others act per character.
     batch: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        schema = cls.__dict__.get("schema")
+        if schema is None:
+            return
+        if cls.__dict__.get("name", schema.name) != schema.name:
+            raise TwigError(f"behaviour class {cls.__name__}: name '{cls.__dict__['name']}' differs from "
+                            f"its schema's '{schema.name}' (give the name once, in the schema)")  # fmt: skip
+        cls.name = schema.name
+        cls.goal_driven = True
+        add_goal_method(schema)
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """The (entity, mind) pairs this behaviour may propose for (a superset is fine).
@@ -192,19 +203,6 @@ class Behavior(System):
     def finish(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """End ``goal`` (done or failed) and report it."""
         character.scene.end_goal(character, goal, ok, reason)
-
-
-#: Goal parameter kinds (a Behavior's ``kinds``) and what they accept.
-PARAM_KINDS = {
-    "entity": "an entity name",
-    "figure": "the name of an entity with a head (a character or a ragdoll)",
-    "place": "an entity name or a point [x, y, z] ([x, z] on the ground)",
-    "seconds": "a duration in seconds (0 to 3600)",
-    "metres": "a distance in metres (0 to 1000)",
-    "speed": "a speed in m/s (0 to 100)",
-    "vector": "a vector [x, y, z] ([x, z] on the ground)",
-    "flag": "true or false",
-}
 
 
 #: Behaviour kinds by name: the systems that implement them (filled by register()).

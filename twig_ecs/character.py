@@ -25,6 +25,7 @@ from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCK
 from twig_ecs.validate import LIMIT, suggest
 
 if TYPE_CHECKING:
+    from twig_ecs.goals import GoalSchema
     from twig_ecs.scene import Scene
 
 HANDS = {"left": (0,), "right": (1,), "both": (0, 1)}
@@ -108,41 +109,6 @@ def _vector(value: Any, what: str, size: int = 3) -> np.ndarray:
     if v.size != size or not np.all(np.isfinite(v)) or np.abs(v).max(initial=0) > LIMIT:
         raise TwigError(f"{what} must be {size} finite numbers (at most {LIMIT:g} in size), got {value!r}")
     return v
-
-
-#: Bounds of the number kinds of goal parameters.
-_PARAM_RANGES = {"seconds": (0.0, 3600.0), "metres": (0.0, 1000.0), "speed": (0.0, 100.0)}
-
-
-def _goal_param(scene: Scene, behavior: str, key: str, kind: Any, value: Any) -> Any:
-    """A goal parameter checked against its kind (Behavior.kinds); TwigError saying what it must be.
-
-    Goals arrive from scripts and over RPC (``do``) with any JSON in them; a wrong type must
-    fail here, when the goal is queued, not later inside a step.
-    """
-    from twig_ecs.behavior import PARAM_KINDS
-
-    where = f"{behavior}: '{key}'"
-    if isinstance(kind, tuple):
-        if value not in kind:
-            raise TwigError(f"{where} must be one of {', '.join(map(repr, kind))}, got {value!r}")
-        return value
-    if kind in ("entity", "figure") and not isinstance(value, str):
-        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
-    if kind == "figure" and "head" not in scene.entity(value).node_names:
-        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}; '{value}' has none")
-    if kind in ("entity", "figure", "place"):
-        return value  # names and points were checked above
-    if kind == "vector":
-        return tuple(_vector(value, where))
-    if kind == "flag":
-        if not isinstance(value, bool):
-            raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
-        return value
-    low, high = _PARAM_RANGES[kind]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not low <= value <= high:
-        raise TwigError(f"{where} must be {PARAM_KINDS[kind]}, got {value!r}")
-    return float(value)
 
 
 class CharacterHandle(BodyHandle):
@@ -540,73 +506,40 @@ class CharacterHandle(BodyHandle):
     def do(self, behavior: str, /, on_end=None, **params):
         """Queue a goal for behaviour ``behavior`` (approach, hug, grapple, carry, drag, sit,
         stand, freeze, gesture, or a plug-in's) and return it; it reports ``goal.done`` or
-        ``goal.failed`` events and calls ``on_end(goal)`` when it ends."""
+        ``goal.failed`` events and calls ``on_end(goal)`` when it ends.
+
+        The parameters are checked against the behaviour's schema (its
+        :class:`~twig_ecs.goals.GoalSchema`) and then against the world: a name must be of
+        an entity here (not this character), a ``figure`` one of a body with a head."""
         from twig_ecs.behavior import Goal
 
         if on_end is not None and not callable(on_end):
             raise TwigError(f"{behavior}: on_end must be a function of the goal, got {on_end!r}")
 
         system = self.scene.behaviors.get(behavior)
-        if system is None or not system.goal_driven:
-            known = sorted(k for k, v in self.scene.behaviors.items() if v.goal_driven)
+        if system is None or not system.goal_driven or system.schema is None:
+            known = sorted(k for k, v in self.scene.behaviors.items() if v.goal_driven and v.schema)
             raise TwigError(f"no goal behaviour '{behavior}'" + suggest(behavior, known))
-        unknown = set(params) - set(system.params)
-        if unknown:
-            raise TwigError(f"{behavior}: unknown parameter(s) {', '.join(sorted(unknown))} "
-                            f"(takes: {', '.join(system.params) or 'none'})")  # fmt: skip
-        merged = {**system.params, **params}
-        missing = [k for k in system.required if merged.get(k) is None]
-        if missing:
-            raise TwigError(f"{behavior}: needs {', '.join(missing)}")
-        for key in ("target", "to", "on"):
-            value = merged.get(key)
-            if isinstance(value, str):
+        merged = system.schema.bind(params)
+        for p in system.schema.params:
+            value = merged[p.name]
+            if isinstance(value, str) and p.kind in ("name", "target"):
                 if value == self.name:
                     raise TwigError(f"{behavior}: '{self.name}' cannot {behavior} itself")
-                self.scene.entity(value)  # KeyError with suggestions if unknown
-            elif value is not None:
-                merged[key] = tuple(_vector(value, f"{behavior} {key}"))
-        for key, kind in system.kinds.items():
-            if merged.get(key) is not None or system.params.get(key) is not None:
-                merged[key] = _goal_param(self.scene, behavior, key, kind, merged.get(key))
+                other = self.scene.entity(value)  # KeyError with suggestions if unknown
+                if p.figure and "head" not in other.node_names:
+                    raise TwigError(f"{behavior}: '{p.name}' must be {p.describe()}; '{value}' has none")
+            elif p.unit == "m/s" and value is not None and value > self.character.max_speed:
+                raise TwigError(f"{behavior}: '{p.name}' {value:g} m/s is more than '{self.name}' can do "
+                                f"({self.character.max_speed:g} m/s)")  # fmt: skip
         goal = Goal(behavior, merged, id=self.scene.new_goal_id(), on_end=on_end)
         self.mind.goals.append(goal)
         self.scene.note_goal(self.entity, self.mind)  # goal-driven behaviours look only at these
         return goal
 
-    def approach(self, target, stop_distance: float = 0.6, direction=None, arms: str | None = None,
-                 curl: bool = True, on_end=None):  # fmt: skip
-        """Walk to ``target`` (entity or point) round obstacles; stop ``stop_distance`` m off it.
-
-        ``direction``: a ground vector to arrive from; ``arms``: "reach", "hug" or "grapple"
-        on the way; ``curl=False`` drops the sideways steering (for comparison).
-        """
-        if arms not in (None, "reach", "hug", "grapple"):
-            raise TwigError(f"approach arms must be reach, hug or grapple, got {arms!r}")
-        return self.do("approach", on_end=on_end, target=target, stop_distance=float(stop_distance),
-                       direction=direction, arms=arms, curl=bool(curl))  # fmt: skip
-
-    def hug(self, target: str, duration: float = 2.0, on_end=None):
-        """Walk up to a character, put both arms round it for ``duration`` s, let go."""
-        return self.do("hug", on_end=on_end, target=target, duration=float(duration))
-
-    def grapple(self, target: str, duration: float = 3.0, on_end=None):
-        """Close to arm's length and bash the target with the arms for ``duration`` s."""
-        return self.do("grapple", on_end=on_end, target=target, duration=float(duration))
-
-    def carry(self, target: str, to=None, hand: str = "right", on_end=None):
-        """Fetch ``target`` in a hand, then carry it ``to`` a point or entity (if given)."""
-        self._hands(hand)
-        return self.do("carry", on_end=on_end, target=target, to=to, hand=hand)
-
-    def drag(self, target: str, distance: float = 5.0, hand: str = "right", on_end=None):
-        """Grab a character or ragdoll and walk ``distance`` m away pulling it."""
-        self._hands(hand)
-        return self.do("drag", on_end=on_end, target=target, distance=float(distance), hand=hand)
-
-    def freeze(self, duration: float | None = None, on_end=None):
-        """Hold every node still (for ``duration`` s, or until the next goal)."""
-        return self.do("freeze", on_end=on_end, duration=duration)
+    # The goal methods (approach, hug, grapple, carry, drag, freeze, and any plug-in goal
+    # whose name is free) are not written here: each goal behaviour's schema makes one
+    # when its class is defined (add_goal_method, below).
 
     @property
     def autonomous(self) -> bool:
@@ -649,3 +582,16 @@ class CharacterHandle(BodyHandle):
                 self.patrol(value["route"], value.get("speed", 1.0))
             else:  # pragma: no cover - the loader only passes known keys
                 raise TwigError(f"unknown character command '{key}'")
+
+
+def add_goal_method(schema: GoalSchema) -> None:
+    """Give :class:`CharacterHandle` the method of a goal: ``handle.<goal>(...)`` queues it.
+
+    Made from the schema (signature, docstring, checks), when a goal behaviour's class is
+    defined. A name the handle already uses for something else - an immediate control such
+    as ``sit`` or ``walk`` - is left alone: that goal is reached with ``handle.do(name, ...)``.
+    """
+    current = CharacterHandle.__dict__.get(schema.name)
+    if not schema.handle_method or (current is not None and not hasattr(current, "goal_schema")):
+        return
+    setattr(CharacterHandle, schema.name, schema.handle_function())

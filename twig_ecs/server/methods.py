@@ -8,52 +8,26 @@ that runs on the simulation's own loop, between steps. Checks that need the worl
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from twig_ecs.arguments import ArgumentError, Param, check_plain
+from twig_ecs.arguments import bind as bind_arguments
+from twig_ecs.behavior import load_builtin_behaviors
 from twig_ecs.character import CharacterHandle
+from twig_ecs.goals import GoalSchema
 from twig_ecs.server.protocol import INVALID_PARAMS, NOT_NOW, RPCError
-from twig_ecs.validate import LIMIT
 
 if TYPE_CHECKING:
     from twig_ecs.server.core import Server, Session
 
-_REQUIRED = object()
-#: Event kinds a client can subscribe to.
-EVENT_KINDS = ("goal.done", "goal.failed", "behavior.changed", "pain", "contact", "grab", "release")
 #: Most frames one ``step`` call may run (60 s of simulated time).
 MAX_STEP = 3600
 #: Bodies beyond which ``spawn`` is refused: the steps (and so every answer) stay quick.
 MAX_SERVED_BODIES = 2000
-#: Deepest nesting of lists and objects inside a parameter.
-MAX_NESTING = 16
-#: Longest duration (s) a goal may be given.
-MAX_DURATION = 3600.0
-
-
-@dataclass(frozen=True, slots=True)
-class Param:
-    """One parameter: its name, kind, default (absent: required) and bounds.
-
-    Kinds: ``name`` (an entity name), ``str``, ``number``, ``int``, ``bool``, ``vector``
-    (3 numbers, or 2 for a ground point [x, z]), ``target`` (an entity name or a
-    vector), ``choice`` (one of ``choices``), ``kinds`` (a list of event kinds),
-    ``object`` (a JSON object, or a boolean), ``color`` (3 numbers in [0, 1]).
-    """
-
-    name: str
-    kind: str
-    default: Any = _REQUIRED
-    low: float = -LIMIT
-    high: float = LIMIT
-    choices: tuple = ()
-    nullable: bool = False
-
-    @property
-    def required(self) -> bool:
-        return self.default is _REQUIRED
+#: Event kinds a client can subscribe to.
+EVENT_KINDS = ("goal.done", "goal.failed", "behavior.changed", "pain", "contact", "grab", "release")
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,131 +46,12 @@ def _bad(message: str) -> RPCError:
     return RPCError(INVALID_PARAMS, message)
 
 
-def _number(p: Param, value: Any, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _bad(f"{where} must be a number, got {_show(value)}")
-    try:
-        value = float(value)
-    except OverflowError:  # a whole number past 1e308
-        value = math.inf if value > 0 else -math.inf
-    if not math.isfinite(value):
-        raise _bad(f"{where} must be a finite number, got {_show(value)}")
-    if not p.low <= value <= p.high:
-        raise _bad(f"{where} must be between {p.low:g} and {p.high:g}, got {value:g}")
-    return value
-
-
-def _show(value: Any) -> str:
-    if isinstance(value, float) and not math.isfinite(value):
-        return "NaN" if value != value else ("Infinity" if value > 0 else "-Infinity")
-    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
-        return f"a {len(str(abs(value)))}-digit number"
-    try:
-        text = repr(value) if not isinstance(value, str) else f"'{value}'"
-    except RecursionError:  # a list nested hundreds deep
-        return f"a deeply nested {type(value).__name__}"
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _check_text(value: str, where: str) -> None:
-    """Refuse text that cannot be written back as UTF-8 (a lone surrogate from a JSON escape)."""
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError:
-        raise _bad(f"{where} is not valid Unicode text (it holds a lone surrogate such as \\ud800)") from None
-
-
-def _vector(p: Param, value: Any) -> tuple[float, ...]:
-    if not isinstance(value, list | tuple) or len(value) not in (2, 3):
-        raise _bad(f"'{p.name}' must be a list of 3 numbers [x, y, z] (or 2, [x, z]), got {_show(value)}")
-    nums = [_number(Param("", "number"), v, f"'{p.name}[{i}]'") for i, v in enumerate(value)]
-    if len(nums) == 2:
-        nums = [nums[0], 0.0, nums[1]]
-    return tuple(nums)
-
-
-def check_value(p: Param, value: Any) -> Any:
-    """``value`` converted for parameter ``p``, or RPCError(-32602) naming the problem."""
-    where = f"'{p.name}'"
-    if value is None:
-        if p.nullable or p.default is None:
-            return None
-        raise _bad(f"{where} must not be null")
-    kind = p.kind
-    if kind in ("name", "str"):
-        if not isinstance(value, str) or not value:
-            raise _bad(f"{where} must be a non-empty string, got {_show(value)}")
-        if len(value) > 200:
-            raise _bad(f"{where} is too long ({len(value)} characters; at most 200)")
-        _check_text(value, where)
-        return value
-    if kind == "number":
-        return _number(p, value, where)
-    if kind == "int":
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise _bad(f"{where} must be a whole number, got {_show(value)}")
-        if not p.low <= value <= p.high:
-            raise _bad(f"{where} must be between {p.low:g} and {p.high:g}, got {value}")
-        return value
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise _bad(f"{where} must be true or false, got {_show(value)}")
-        return value
-    if kind == "vector":
-        return _vector(p, value)
-    if kind == "target":
-        if isinstance(value, str):
-            return check_value(Param(p.name, "name"), value)
-        if isinstance(value, list | tuple):
-            return _vector(p, value)
-        raise _bad(f"{where} must be an entity name or a point [x, y, z], got {_show(value)}")
-    if kind == "choice":
-        if value not in p.choices:
-            raise _bad(f"{where} must be one of {', '.join(map(str, p.choices))}; got {_show(value)}")
-        return value
-    if kind == "kinds":
-        items = [value] if isinstance(value, str) else value
-        if not isinstance(items, list) or not items:
-            raise _bad(f"{where} must be an event kind or a list of them ({', '.join(EVENT_KINDS)})")
-        for item in items:
-            if item not in EVENT_KINDS and item != "*":
-                raise _bad(f"{where}: unknown event kind {_show(item)} (known: {', '.join(EVENT_KINDS)}, *)")
-        return list(EVENT_KINDS) if "*" in items else list(dict.fromkeys(items))
-    if kind == "object":
-        if not isinstance(value, dict | bool):
-            raise _bad(f"{where} must be an object or a boolean, got {_show(value)}")
-        _check_plain(value, p.name)
-        return value
-    if kind == "color":
-        if not isinstance(value, list) or len(value) != 3:
-            raise _bad(f"{where} must be 3 numbers [r, g, b] between 0 and 1, got {_show(value)}")
-        unit = Param("", "number", low=0.0, high=1.0)
-        return [_number(unit, v, f"'{p.name}[{i}]'") for i, v in enumerate(value)]
-    raise AssertionError(f"unknown parameter kind {kind}")
-
-
 def bind(method: Method, params: dict[str, Any] | list[Any]) -> dict[str, Any]:
     """Check ``params`` (by name or by position) against ``method``; returns keyword arguments."""
-    if isinstance(params, list):
-        if len(params) > len(method.params):
-            raise _bad(f"{method.name} takes at most {len(method.params)} parameter(s), got {len(params)}")
-        params = {p.name: v for p, v in zip(method.params, params, strict=False)}
-    known = {p.name for p in method.params}
-    unknown = [k for k in params if k not in known]
-    if unknown:
-        takes = ", ".join(p.name for p in method.params) or "none"
-        raise _bad(f"{method.name}: unknown parameter(s) {', '.join(map(_show, unknown))} (takes: {takes})")
-    out = {}
-    for p in method.params:
-        if p.name in params:
-            out[p.name] = check_value(p, params[p.name])
-        elif p.required:
-            raise _bad(f"{method.name}: missing parameter '{p.name}'")
-        else:
-            out[p.name] = p.default
-    return out
+    try:
+        return bind_arguments(method.name, method.params, params)
+    except ArgumentError as exc:
+        raise _bad(str(exc)) from None
 
 
 # -- reading the world ------------------------------------------------------------------------
@@ -291,43 +146,27 @@ def _goal(server: Server, session: Session, character: str, behavior: str, param
     return {"goal": goal.id, "character": character, "behavior": behavior}
 
 
-def _goal_method(behavior: str, param_names: tuple[str, ...]):
+def _goal_method(behavior: str):
     def run(server: Server, session: Session, character: str, **params) -> dict[str, Any]:
-        given = {k: params[k] for k in param_names}
-        return _goal(server, session, character, behavior, given)
+        return _goal(server, session, character, behavior, params)
 
     return run
-
-
-def gesture(server: Server, session: Session, character: str, name: str, target, duration: float):
-    params = {"name": name, "target": target, "duration": duration}
-    return _goal(server, session, character, "gesture", params)
-
-
-def _check_plain(value: Any, where: str, depth: int = 0) -> None:
-    """Every number inside a JSON value finite and not huge, every text valid, nesting shallow."""
-    if depth > MAX_NESTING:
-        raise _bad(f"'{where}' is nested more than {MAX_NESTING} deep")
-    if isinstance(value, dict):
-        for k, v in value.items():
-            _check_plain(v, f"{where}.{k}", depth + 1)
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            _check_plain(v, f"{where}[{i}]", depth + 1)
-    elif isinstance(value, float | int) and not isinstance(value, bool):
-        _number(Param("", "number"), value, f"'{where}'")
-    elif isinstance(value, str):
-        _check_text(value, f"'{where}'")
-    if isinstance(value, dict):
-        for k in value:
-            _check_text(str(k), f"'{where}' key")
 
 
 def goal_do(server: Server, session: Session, character: str, behavior: str, params: Any):
     if params is not None and not isinstance(params, dict):
         raise _bad("'params' must be an object")
-    _check_plain(params, "params")
+    try:
+        check_plain(params, "params")
+    except ArgumentError as exc:
+        raise _bad(str(exc)) from None
     return _goal(server, session, character, behavior, params or {})
+
+
+def goal_schemas(server: Server, session: Session) -> list[dict[str, Any]]:
+    """The schemas of every goal behaviour of the served scene, plug-ins included."""
+    behaviors = server.scene.behaviors.values()
+    return [b.schema.describe() for b in behaviors if b.goal_driven and b.schema is not None]
 
 
 def walk(server: Server, session: Session, character: str, velocity) -> None:
@@ -419,8 +258,19 @@ def auth(server: Server, session: Session, token: str) -> dict[str, Any]:
 
 _WHO = Param("character", "name")
 _TARGET = Param("target", "name")
-_DURATION = Param("duration", "number", 2.0, low=0.0, high=MAX_DURATION)
 _HAND = Param("hand", "choice", "right", choices=("left", "right"))
+
+
+def builtin_goal_schemas() -> list[GoalSchema]:
+    """The schemas of the built-in goal behaviours, in the order they are registered."""
+    return [cls.schema for cls in load_builtin_behaviors().values() if cls.schema is not None]
+
+
+def goal_method(schema: GoalSchema) -> Method:
+    """The RPC method of a goal: ``character`` and then the schema's parameters, in order."""
+    return Method(schema.name, (_WHO, *schema.params), _goal_method(schema.name), "Goal: " + schema.doc,
+                  subject="character")  # fmt: skip
+
 
 _ALL = (
     Method("ping", (), ping, "Answer 'pong' (a liveness check).", queued=False),
@@ -433,14 +283,14 @@ _ALL = (
     ),
     Method(
         "subscribe",
-        (Param("events", "kinds"),),
+        (Param("events", "kinds", choices=EVENT_KINDS),),
         subscribe,
         "Receive notifications of these event kinds ('*' for all).",
         queued=False,
     ),
     Method(
         "unsubscribe",
-        (Param("events", "kinds"),),
+        (Param("events", "kinds", choices=EVENT_KINDS),),
         unsubscribe,
         "Stop receiving these event kinds.",
         queued=False,
@@ -454,81 +304,19 @@ _ALL = (
         "One entity's state, or (no name) every entity's with the frame and time.",
         subject="name",
     ),
-    Method(
-        "approach",
-        (
-            _WHO,
-            Param("target", "target"),
-            Param("stop_distance", "number", 0.6, low=0.0, high=100.0),
-            Param("direction", "vector", None),
-            Param("arms", "choice", None, choices=("reach", "hug", "grapple")),
-            Param("curl", "bool", True),
-        ),
-        _goal_method("approach", ("target", "stop_distance", "direction", "arms", "curl")),
-        "Goal: walk to an entity or point, stopping stop_distance m off it.",
-        subject="character",
-    ),
-    Method(
-        "hug",
-        (_WHO, _TARGET, _DURATION),
-        _goal_method("hug", ("target", "duration")),
-        "Goal: walk up to a character and hug it for duration s.",
-        subject="character",
-    ),
-    Method(
-        "grapple",
-        (_WHO, _TARGET, Param("duration", "number", 3.0, low=0.0, high=MAX_DURATION)),
-        _goal_method("grapple", ("target", "duration")),
-        "Goal: close in and grapple a character for duration s.",
-        subject="character",
-    ),
-    Method(
-        "carry",
-        (_WHO, _TARGET, Param("to", "target", None), _HAND),
-        _goal_method("carry", ("target", "to", "hand")),
-        "Goal: fetch a thing in one hand, then carry it to a point or entity.",
-        subject="character",
-    ),
-    Method(
-        "drag",
-        (_WHO, _TARGET, Param("distance", "number", 5.0, low=0.0, high=1000.0), _HAND),
-        _goal_method("drag", ("target", "distance", "hand")),
-        "Goal: grab a body and walk distance m away pulling it.",
-        subject="character",
-    ),
-    Method(
-        "sit",
-        (_WHO, Param("on", "name", None)),
-        _goal_method("sit", ("on",)),
-        "Goal: sit on the ground, or walk to a seat entity and sit on it.",
-        subject="character",
-    ),
-    Method("stand", (_WHO,), _goal_method("stand", ()), "Goal: stand up.", subject="character"),
-    Method(
-        "freeze",
-        (_WHO, Param("duration", "number", None, low=0.0, high=MAX_DURATION)),
-        _goal_method("freeze", ("duration",)),
-        "Goal: hold still for duration s (null: until the next goal).",
-        subject="character",
-    ),
-    Method(
-        "gesture",
-        (
-            _WHO,
-            Param("name", "choice", choices=("wave", "point")),
-            Param("target", "target", None),
-            _DURATION,
-        ),
-        gesture,
-        "Goal: wave, or point at a target, for duration s.",
-        subject="character",
-    ),
+    *(goal_method(schema) for schema in builtin_goal_schemas()),
     Method(
         "do",
         (_WHO, Param("behavior", "str"), Param("params", "object", None)),
         goal_do,
         "Goal of any goal behaviour by name (plug-ins too), with its parameters.",
         subject="character",
+    ),
+    Method(
+        "goal_schemas",
+        (),
+        goal_schemas,
+        "Every goal of the scene (plug-ins too): name, doc, parameters with kinds and defaults.",
     ),
     Method(
         "cancel_goals",
