@@ -175,14 +175,14 @@ class Approach(Behavior):
 
     schema = GoalSchema(
         "approach",
-        "Walk to an entity or a point round obstacles and stop stop_distance m off it.",
+        "Walk to an entity or a point round obstacles and stop `stop_distance` m off it.",
         (
             Param("target", "target", doc="the entity or point to walk to"),
             metres("stop_distance", 0.6, "how far from the target to stop"),
-            Param("direction", "vector", None, doc="a ground vector to arrive along (null: from anywhere)"),
+            Param("direction", "vector", None, doc="a ground vector to arrive along (unset: from anywhere)"),
             Param("arms", "choice", None, choices=("reach", "hug", "grapple"),
-                  doc="the arms on the way: reach for it, or hold the hug or grapple pose (null: swing)"),
-            Param("curl", "bool", True, doc="steer sideways round obstacles (false: straight at it)"),
+                  doc="the arms on the way: reach for it, or the hug or grapple pose (unset: they swing)"),
+            Param("curl", "bool", True, doc="steer sideways round obstacles (off: straight at it)"),
         ),
     )  # fmt: skip
 

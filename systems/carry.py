@@ -64,7 +64,7 @@ class Carry(Behavior):
         "Fetch a thing in one hand, then carry it to a point or an entity.",
         (
             Param("target", "name", doc="the thing to fetch"),
-            Param("to", "target", None, doc="where to take it (null: pick it up and stop)"),
+            Param("to", "target", None, doc="where to take it (unset: pick it up and stop)"),
             Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds it"),
         ),
     )
@@ -97,7 +97,7 @@ class Drag(Behavior):
 
     schema = GoalSchema(
         "drag",
-        "Grab a character, ragdoll or thing and walk distance m straight away from it, pulling it.",
+        "Grab a character, ragdoll or thing and walk `distance` m straight away from it, pulling it.",
         (
             Param("target", "name", doc="what to drag"),
             metres("distance", 5.0, "how far to walk away pulling it"),

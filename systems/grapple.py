@@ -34,7 +34,7 @@ class Grapple(Behavior):
 
     schema = GoalSchema(
         "grapple",
-        "Close to arm's length and shove and hit the target for duration s.",
+        "Close to arm's length and shove and hit the target for `duration` s.",
         (
             Param("target", "name", figure=True, doc="whom to fight"),
             seconds("duration", 3.0, "how long to fight within reach"),

@@ -56,7 +56,7 @@ class Hug(Behavior):
 
     schema = GoalSchema(
         "hug",
-        "Walk up to a character, put both arms round it for duration s, let go.",
+        "Walk up to a character, put both arms round it for `duration` s, let go.",
         (
             Param("target", "name", figure=True, doc="whom to hug"),
             seconds("duration", 2.0, "how long the arms stay round it"),

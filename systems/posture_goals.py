@@ -25,7 +25,7 @@ class SitDown(Behavior):
     schema = GoalSchema(
         "sit",
         "Sit on the ground, or walk to a seat entity and sit on it.",
-        (Param("on", "name", None, doc="the seat (null: the ground where it stands)"),),
+        (Param("on", "name", None, doc="the seat (unset: the ground where it stands)"),),
         handle_method=False,  # handle.sit is the immediate control: do("sit", ...) queues the goal
     )
 
@@ -69,8 +69,8 @@ class Freeze(Behavior):
 
     schema = GoalSchema(
         "freeze",
-        "Hold every node still for duration s (null: until the next goal).",
-        (seconds("duration", None, "how long to hold still (null: until another goal is queued)"),),
+        "Hold every node still for `duration` s, or until the next goal.",
+        (seconds("duration", None, "how long to hold still (unset: until another goal is queued)"),),
     )
 
     def start(self, character, goal: Goal | None) -> None:
@@ -97,7 +97,7 @@ class Gesture(Behavior):
 
     schema = GoalSchema(
         "gesture",
-        "Wave, or point at a target, for duration s.",
+        "Wave, or point at a target, for `duration` s.",
         (
             Param("name", "choice", choices=GESTURES, doc="the gesture"),
             Param("target", "target", None, doc="what to point at (an entity or a point)"),

@@ -205,6 +205,11 @@ class Behavior(System):
         character.scene.end_goal(character, goal, ok, reason)
 
 
+def builtin_goal_schemas() -> list[GoalSchema]:
+    """The schemas of the built-in goal behaviours, in the order they are registered."""
+    return [cls.schema for cls in load_builtin_behaviors().values() if cls.schema is not None]
+
+
 #: Behaviour kinds by name: the systems that implement them (filled by register()).
 REGISTRY: dict[str, type[Behavior]] = {}
 

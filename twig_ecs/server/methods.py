@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from twig_ecs.arguments import ArgumentError, Param, check_plain
 from twig_ecs.arguments import bind as bind_arguments
-from twig_ecs.behavior import load_builtin_behaviors
+from twig_ecs.behavior import builtin_goal_schemas
 from twig_ecs.character import CharacterHandle
 from twig_ecs.goals import GoalSchema
 from twig_ecs.server.protocol import INVALID_PARAMS, NOT_NOW, RPCError
@@ -259,11 +259,6 @@ def auth(server: Server, session: Session, token: str) -> dict[str, Any]:
 _WHO = Param("character", "name")
 _TARGET = Param("target", "name")
 _HAND = Param("hand", "choice", "right", choices=("left", "right"))
-
-
-def builtin_goal_schemas() -> list[GoalSchema]:
-    """The schemas of the built-in goal behaviours, in the order they are registered."""
-    return [cls.schema for cls in load_builtin_behaviors().values() if cls.schema is not None]
 
 
 def goal_method(schema: GoalSchema) -> Method:
