@@ -10,7 +10,7 @@ gaze, posture, arms, respiration) act on in the next steps.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -31,6 +31,8 @@ if TYPE_CHECKING:
 HANDS = {"left": (0,), "right": (1,), "both": (0, 1)}
 POSTURES = {STAND: "stand", SIT: "sit", RISE: "rise", LIMP: "limp"}
 GESTURES = ("wave", "point")
+#: The arm poses of :meth:`CharacterHandle.pose`.
+ARM_POSES = ("hang", "grapple", "hug", "carry")
 #: Height (m) of the reference humanoid; characters scale their gait by height / this.
 REFERENCE_HEIGHT = 1.75
 #: Standing pelvis height as a fraction of the template's: knees slightly bent.
@@ -395,8 +397,8 @@ class CharacterHandle(BodyHandle):
 
     def pose(self, name: str, hand: str = "both") -> None:
         """Hold the arms in a pose: ``hang`` (relaxed), ``grapple``, ``hug`` or ``carry``."""
-        if name not in ("hang", "grapple", "hug", "carry"):
-            raise TwigError(f"unknown arm pose '{name}'" + suggest(name, ("hang", "grapple", "hug", "carry")))
+        if name not in ARM_POSES:
+            raise TwigError(f"unknown arm pose '{name}'" + suggest(name, ARM_POSES))
         ch, row = self._chars(), self._crow
         for h in self._hands(hand):
             ch.arm_mode[row, h] = ARM_MODES[name]
@@ -560,28 +562,42 @@ class CharacterHandle(BodyHandle):
     # -- starting commands from YAML ---------------------------------------------------------
 
     def apply(self, commands: dict[str, Any]) -> None:
-        """Run the ``character:`` commands of a scene file (walk, look_at, reach...)."""
+        """Run the ``character:`` commands of a scene file (:data:`START_COMMANDS`: walk, look_at...)."""
         for key, value in commands.items():
-            if key == "walk":
-                self.walk(value)
-            elif key == "look_at":
-                self.look_at(value)
-            elif key == "reach":
-                self.reach(value)
-            elif key == "gesture":
-                self.gesture(value)
-            elif key == "point_at":
-                self.gesture("point", value)
-            elif key == "pose":
-                self.pose(value)
-            elif key == "sit":
-                self.sit(None if value is True else value)
-            elif key == "hold":
-                self._hold_nearest(value)
-            elif key == "patrol":
-                self.patrol(value["route"], value.get("speed", 1.0))
-            else:  # pragma: no cover - the loader only passes known keys
-                raise TwigError(f"unknown character command '{key}'")
+            command = START_COMMANDS.get(key)
+            if command is None:  # pragma: no cover - the loader only passes known keys
+                raise TwigError(f"unknown character command '{key}'" + suggest(key, START_COMMANDS))
+            command.run(self, value)
+
+
+@dataclass(frozen=True)
+class StartCommand:
+    """A command a scene file's ``character:`` mapping starts a character with.
+
+    ``takes`` names the YAML value it reads (the scene reader's ``velocity``, ``target``,
+    ``entity``, ``gesture``, ``pose``, ``seat`` or ``patrol``); ``names_entity``: a text
+    value names another entity, checked once the whole file is read.
+    """
+
+    takes: str
+    run: Callable[[CharacterHandle, Any], None]
+    names_entity: bool = False
+
+
+#: The ``character:`` keys that start a character doing something, in the order they run.
+START_COMMANDS: dict[str, StartCommand] = {
+    "walk": StartCommand("velocity", lambda c, v: c.walk(v)),
+    "look_at": StartCommand("target", lambda c, v: c.look_at(v), names_entity=True),
+    "reach": StartCommand("target", lambda c, v: c.reach(v), names_entity=True),
+    "point_at": StartCommand("target", lambda c, v: c.gesture("point", v), names_entity=True),
+    "hold": StartCommand("entity", lambda c, v: c._hold_nearest(v), names_entity=True),  # noqa: SLF001
+    "gesture": StartCommand("gesture", lambda c, v: c.gesture(v)),
+    "pose": StartCommand("pose", lambda c, v: c.pose(v)),
+    "sit": StartCommand("seat", lambda c, v: c.sit(None if v is True else v), names_entity=True),
+    "patrol": StartCommand("patrol", lambda c, v: c.patrol(v["route"], v.get("speed", 1.0))),
+}
+#: Every key of a scene file's ``character:`` mapping: the setting, then the start commands.
+CHARACTER_KEYS = ("max_speed", *START_COMMANDS)
 
 
 def add_goal_method(schema: GoalSchema) -> None:

@@ -241,7 +241,7 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
     in ``diverged``.
     """
     from twig_ecs.server.core import Server
-    from twig_ecs.server.methods import METHODS, bind
+    from twig_ecs.server.methods import bind, find_method
     from twig_ecs.server.protocol import RPCError
 
     header, commands, end = read_replay(path)
@@ -256,7 +256,7 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
             if frame < scene.frame:
                 raise ReplayError(f"commands out of order: frame {frame} after frame {scene.frame}")
             scene.step(frame - scene.frame)
-            method = METHODS.get(item["method"])
+            method = find_method(item["method"], scene)
             if method is None:
                 raise ReplayError(f"unknown method '{item['method']}' in the replay file")
             if method.name in CLOCK_METHODS:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from twig_ecs.behavior import Behavior, installed_behaviors, load_builtin_behaviors, load_class
-from twig_ecs.character import CharacterSpec
+from twig_ecs.character import ARM_POSES, CHARACTER_KEYS, START_COMMANDS, CharacterSpec
 from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.library import ContentLibrary, read_document
@@ -61,8 +61,6 @@ SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
 ENTITY_KEYS = ("name", "body", "position", "facing", "height", "mass", "color", "pain", "damping",
                "character", "perception", "behaviors", "repeat")  # fmt: skip
 REPEAT_KEYS = ("count", "spacing")
-CHARACTER_KEYS = ("max_speed", "walk", "look_at", "reach", "gesture", "point_at", "pose", "sit", "hold",
-                  "patrol")  # fmt: skip
 
 
 @dataclass
@@ -219,6 +217,18 @@ def _one_of(*names):
     return read_name
 
 
+#: How each kind of start command's value is read (START_COMMANDS lists the keys).
+_START_READERS = {
+    "velocity": _walk,
+    "target": _target,
+    "entity": text,
+    "gesture": _one_of("wave"),
+    "pose": _one_of(*ARM_POSES),
+    "seat": _seat,
+    "patrol": _patrol,
+}
+
+
 def read_character(raw: YDict, path: str, template: BodyTemplate) -> CharacterSpec | None:
     """The ``character:`` key: true, or a mapping of settings and starting commands."""
     if "character" not in raw or raw["character"] is False:
@@ -233,21 +243,10 @@ def read_character(raw: YDict, path: str, template: BodyTemplate) -> CharacterSp
     here = join(path, "character")
     doc = read(raw, "character", path, mapping)
     check_keys(doc, here, CHARACTER_KEYS)
-    kinds = {
-        "walk": _walk,
-        "look_at": _target,
-        "reach": _target,
-        "point_at": _target,
-        "hold": text,
-        "gesture": _one_of("wave"),
-        "pose": _one_of("hang", "grapple", "hug", "carry"),
-        "sit": _seat,
-        "patrol": _patrol,
-    }
     spec = CharacterSpec(max_speed=read(doc, "max_speed", here, positive, 6.0))
-    for key, kind in kinds.items():
+    for key, command in START_COMMANDS.items():
         if key in doc:
-            spec.start[key] = read(doc, key, here, kind)
+            spec.start[key] = read(doc, key, here, _START_READERS[command.takes])
     spec.where = {key: doc for key in spec.start}  # for name checks once all entities are known
     return spec
 
@@ -302,7 +301,7 @@ def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | N
             continue
         i = seen[spec.name]  # its place in the file
         for key, value in spec.character.start.items():
-            if isinstance(value, str) and key in ("look_at", "reach", "point_at", "hold", "sit"):
+            if isinstance(value, str) and START_COMMANDS[key].names_entity:
                 if value not in seen or value == spec.name:
                     where = spec.character.where[key]
                     why = (

@@ -31,7 +31,7 @@ from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
 from twig_ecs.server import protocol as rpc
-from twig_ecs.server.methods import METHODS, Method, bind
+from twig_ecs.server.methods import METHODS, Method, bind, find_method
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.validate import suggest
 
@@ -159,7 +159,7 @@ class Session:
             done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
             self.close_soon()
             return
-        method = METHODS.get(name)
+        method = find_method(name, self.server.scene)
         if method is None:
             done(None, RPCError(rpc.METHOD_NOT_FOUND, f"unknown method '{name}'" + suggest(name, METHODS)))
             return

@@ -400,3 +400,15 @@ _ALL = (
 
 #: Methods by name.
 METHODS: dict[str, Method] = {m.name: m for m in _ALL}
+
+
+def find_method(name: str, scene: Any = None) -> Method | None:
+    """The method called ``name``: one of :data:`METHODS`, or the goal method of a plug-in goal
+    behaviour of ``scene`` (made from its schema, like the built-in goals' methods)."""
+    method = METHODS.get(name)
+    if method is not None or scene is None:
+        return method
+    behavior = scene.behaviors.get(name)
+    if behavior is None or not behavior.goal_driven or behavior.schema is None:
+        return None
+    return goal_method(behavior.schema)

@@ -22,7 +22,7 @@ from typing import Any
 from twig_ecs import __version__
 from twig_ecs.server import protocol as rpc
 from twig_ecs.server.core import MAX_ANSWER, Session
-from twig_ecs.server.methods import METHODS
+from twig_ecs.server.methods import find_method
 from twig_ecs.server.protocol import RPCError
 
 #: Object names that address the server itself rather than an entity.
@@ -98,8 +98,11 @@ def parse_args(text: str) -> tuple[list[Any], dict[str, Any]]:
     return args, named
 
 
-def parse_line(line: str) -> tuple[str, dict[str, Any]]:
-    """``objectname: methodname args`` as a method name and its parameters by name."""
+def parse_line(line: str, scene: Any = None) -> tuple[str, dict[str, Any]]:
+    """``objectname: methodname args`` as a method name and its parameters by name.
+
+    ``scene``: the served scene, whose plug-in goal behaviours are methods too.
+    """
     head, sep, tail = line.partition(":")
     obj = head.strip()
     if not sep or not obj or " " in obj:
@@ -109,7 +112,7 @@ def parse_line(line: str) -> tuple[str, dict[str, Any]]:
         raise RPCError(rpc.INVALID_REQUEST, f"'{obj}:' names no method")
     name = parts[0]
     args, named = parse_args(parts[1] if len(parts) > 1 else "")
-    method = METHODS.get(name)
+    method = find_method(name, scene)
     if method is None:
         return name, named  # the call reports the unknown method
     slots = [p for p in method.params]
@@ -176,7 +179,7 @@ class TwigSession(Session):
             self.inflight.release()
             return
         try:
-            name, params = parse_line(text)
+            name, params = parse_line(text, self.server.scene)
         except RPCError as exc:
             self._answer(None, exc)
             return
