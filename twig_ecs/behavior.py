@@ -107,8 +107,9 @@ class Behavior(System):
     """Base class of behaviour systems: propose activations, act when winning.
 
     Subclasses set ``name`` (the behaviour kind, also its schedule stage) and implement
-    :meth:`activation` and :meth:`act`. A behaviour driven by goals sets
-    ``goal_driven = True``: it is active while the character's current goal names it.
+    :meth:`activation` and :meth:`act`. A behaviour driven by goals declares its
+    ``schema`` instead of a name (which makes it ``goal_driven``): it is active while the
+    character's current goal names it.
     """
 
     goal_driven: ClassVar[bool] = False
