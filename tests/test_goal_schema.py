@@ -329,3 +329,23 @@ def test_a_schema_never_replaces_an_immediate_control_and_the_name_is_given_once
         GoalSchema("x", "x", (Param("on_end", "bool", False),))
     with pytest.raises(ValueError, match="has kind 'color'"):
         GoalSchema("x", "x", (Param("tint", "color", None),))
+
+
+# -- character keys: listed once -------------------------------------------------------------
+
+
+def test_character_keys_are_listed_once_and_documented(tmp_path):
+    from twig_ecs import character, scenefile
+
+    assert scenefile.CHARACTER_KEYS is character.CHARACTER_KEYS
+    assert character.CHARACTER_KEYS == ("max_speed", *character.START_COMMANDS)
+    text = (ROOT / "docs" / "characters.md").read_text()
+    example = text[text.index("## In a scene file") : text.index("## How the controllers work")]
+    for key in character.CHARACTER_KEYS:
+        assert f"{key}:" in example, f"docs/characters.md's scene example lacks '{key}'"
+    # a start command that names an entity is checked against the file's entities
+    path = tmp_path / "pointing.yaml"
+    path.write_text("twig: 1\nentities:\n  - {name: ann, body: humanoid, character: {point_at: bal}}\n"
+                    "  - {name: ball, body: ball, position: [1, 0, 1]}\n")  # fmt: skip
+    with pytest.raises(TwigError, match=r"point_at: unknown entity 'bal' \(did you mean 'ball'\?\)"):
+        Scene.load(path)
