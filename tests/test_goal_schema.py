@@ -328,6 +328,12 @@ def test_a_schema_never_replaces_an_immediate_control_and_the_name_is_given_once
             name = "shuffle"
             schema = GoalSchema("shamble", "Two names for one goal.")
 
+    with pytest.raises(TwigError, match="Stride: params: a goal's parameters are declared in its schema"):
+
+        class Stride(Behavior):  # the way goals were declared before schemas
+            params = {"target": None}
+            goal_driven = True
+
     with pytest.raises(ValueError, match="'on_end' is the handle's callback"):
         GoalSchema("x", "x", (Param("on_end", "bool", False),))
     with pytest.raises(ValueError, match="has kind 'color'"):
@@ -352,3 +358,17 @@ def test_character_keys_are_listed_once_and_documented(tmp_path):
                     "  - {name: ball, body: ball, position: [1, 0, 1]}\n")  # fmt: skip
     with pytest.raises(TwigError, match=r"point_at: unknown entity 'bal' \(did you mean 'ball'\?\)"):
         Scene.load(path)
+
+
+def test_a_goal_behaviour_without_a_schema_is_refused_with_the_reason(scenes):
+    class Shrug(Behavior):
+        name = "shrug"
+        goal_driven = True
+
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    scene.add_system(Shrug(), after="sense", before="select_behavior")
+    ann = scene.spawn("humanoid", name="ann", character=True)
+    with pytest.raises(TwigError, match=r"goal behaviour 'shrug' \(Shrug\) declares no schema"):
+        ann.do("shrug")
+    assert ann.goals == []

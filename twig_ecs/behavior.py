@@ -132,6 +132,10 @@ class Behavior(System):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        old = [key for key in ("params", "required", "kinds") if key in cls.__dict__]
+        if old:  # the attributes a goal's parameters were declared with before schemas
+            raise TwigError(f"behaviour class {cls.__name__}: {', '.join(old)}: a goal's parameters are "
+                            "declared in its schema now (docs/authoring-behaviours.md)")  # fmt: skip
         schema = cls.__dict__.get("schema")
         if schema is None:
             return

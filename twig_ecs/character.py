@@ -519,9 +519,12 @@ class CharacterHandle(BodyHandle):
             raise TwigError(f"{behavior}: on_end must be a function of the goal, got {on_end!r}")
 
         system = self.scene.behaviors.get(behavior)
-        if system is None or not system.goal_driven or system.schema is None:
-            known = sorted(k for k, v in self.scene.behaviors.items() if v.goal_driven and v.schema)
+        if system is None or not system.goal_driven:
+            known = sorted(k for k, v in self.scene.behaviors.items() if v.goal_driven)
             raise TwigError(f"no goal behaviour '{behavior}'" + suggest(behavior, known))
+        if system.schema is None:
+            raise TwigError(f"goal behaviour '{behavior}' ({type(system).__name__}) declares no schema: "
+                            "give its class one (docs/authoring-behaviours.md, section 3)")  # fmt: skip
         merged = system.schema.bind(params)
         for p in system.schema.params:
             value = merged[p.name]
