@@ -23,7 +23,9 @@ import esper
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Event
+from twig_ecs.schedule import BEHAVIOURS
 from twig_ecs.system import System
+from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
     from twig_ecs.character import CharacterHandle
@@ -109,6 +111,8 @@ class Behavior(System):
     ``goal_driven = True``: it is active while the character's current goal names it.
     """
 
+    #: Every behaviour proposes in the schedule's behaviours stage, before select_behavior.
+    stage: ClassVar[str | None] = BEHAVIOURS
     goal_driven: ClassVar[bool] = False
     #: Parameters a goal of this kind accepts, with their defaults.
     params: ClassVar[dict[str, Any]] = {}
@@ -235,26 +239,6 @@ def register(cls: type[Behavior]) -> type[Behavior]:
     return cls
 
 
-def load_builtin_behaviors() -> dict[str, type[Behavior]]:
-    """Import the built-in behaviour systems (they register themselves); return the registry."""
-    from twig_ecs.systems import (  # noqa: F401
-        approach,
-        attachment,
-        carry,
-        fight,
-        grapple,
-        hug,
-        play,
-        posture_goals,
-        ride,
-        wander,
-        watch,
-        withdraw,
-    )
-
-    return {k: v for k, v in REGISTRY.items() if v.__module__.startswith("twig_ecs.")}
-
-
 #: Entry point group through which installed packages offer behaviours.
 ENTRY_POINT_GROUP = "twig_ecs.behaviors"
 
@@ -308,6 +292,4 @@ def load_class(reference: str, base_dir: str | None = None) -> type:
         return getattr(module, class_name)
     except AttributeError:
         names = [n for n in dir(module) if not n.startswith("_")]
-        from twig_ecs.validate import suggest
-
         raise TwigError(f"'{module_name}' has no '{class_name}'" + suggest(class_name, names)) from None

@@ -225,7 +225,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="twig",
         description="twig-ecs: procedural character animation with believable physical interactions.",
     )
-    from twig_ecs import __version__
+    from twig_ecs.version import __version__
 
     parser.add_argument("--version", action="version", version=f"twig-ecs {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
