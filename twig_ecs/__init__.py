@@ -36,11 +36,17 @@ from twig_ecs.kernels import configure_cache  # noqa: E402
 configure_cache()  # before any kernel module is imported
 
 from twig_ecs.errors import SceneError, ScheduleError, TwigError  # noqa: E402
-from twig_ecs.plugins import BehavioursPlugin, ControlPlugin, PhysicsPlugin, Plugin  # noqa: E402
+from twig_ecs.plugins import (  # noqa: E402
+    BehavioursPlugin,
+    ControlPlugin,
+    PhysicsPlugin,
+    Plugin,
+    SchoolyardMotivesPlugin,
+)
 from twig_ecs.scene import Scene  # noqa: E402
 from twig_ecs.scenefile import Settings  # noqa: E402
 from twig_ecs.system import System  # noqa: E402
 
 __all__ = ["BehavioursPlugin", "ControlPlugin", "PhysicsPlugin", "Plugin", "Scene", "SceneError",
-           "ScheduleError",
+           "SchoolyardMotivesPlugin", "ScheduleError",
            "Settings", "System", "TwigError", "__version__"]  # fmt: skip

@@ -22,6 +22,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, ClassVar
 
 from twig_ecs.behavior import REGISTRY, Behavior
+from twig_ecs.schedule import BEHAVIOURS
 from twig_ecs.system import System
 from twig_ecs.systems.approach import Approach
 from twig_ecs.systems.arms import ArmsSystem
@@ -86,29 +87,60 @@ class ControlPlugin(Plugin):
                ArmsSystem, RespirationSystem)  # fmt: skip
 
 
-#: The built-in behaviours, in the order they propose each step (a goal behaviour and the
-#: answers it draws from others - cradle to carry, embrace to hug, defend to fight - included).
+#: Every built-in behaviour, in the order they propose each step (whichever plugins bring
+#: them): goal behaviours, the answers they draw from others (cradle to carry, embrace to
+#: hug, defend to a fight), the schoolyard's motives and the pain reflex.
 BUILTIN_BEHAVIORS: tuple[type[Behavior], ...] = (
     Approach, AttachmentBehavior, Carry, Drag, Cradle, Fight, Defend, Grapple, Embrace, Hug, Play,
     SitDown, StandUp, Freeze, Gesture, Ride, WanderBehavior, Watch, Withdraw,
 )  # fmt: skip
 
+#: The schoolyard's motives: behaviours a character *has* (a component says how strongly).
+MOTIVES: tuple[type[Behavior], ...] = (AttachmentBehavior, Fight, Play, Ride, WanderBehavior, Watch)
 
-class BehavioursPlugin(Plugin):
-    """The built-in behaviours: goal behaviours (approach, carry, hug...), the schoolyard's
-    motives (attachment, play, fight, ride, watch, wander) and the pain reflex (withdraw).
+#: The goal behaviours (what a character is told to do), their answers and the pain reflex.
+GOAL_BEHAVIORS: tuple[type[Behavior], ...] = tuple(b for b in BUILTIN_BEHAVIORS if b not in MOTIVES)
 
-    Motives only propose for characters that carry their component, so a scene pays only
+
+class _BuiltinBehaviours(Plugin):
+    """Adds built-in behaviours so that they propose in :data:`BUILTIN_BEHAVIORS` order,
+    whichever of the behaviour plugins a scene has and in whatever order it lists them."""
+
+    def build(self, scene: Scene) -> None:
+        stages = scene.schedule.stages
+        names = [b.name for b in BUILTIN_BEHAVIORS]
+        for cls in self.systems:
+            at = names.index(cls.name)
+            # between its nearest built-in neighbours already in the schedule (a linked-list insert)
+            after = next((n for n in reversed(names[:at]) if n in stages), None)
+            before = next((n for n in names[at + 1 :] if n in stages), None)
+            if after is None and before is None:
+                scene.add_system(cls())  # the first: it joins the behaviours stage
+            else:
+                scene.add_system(cls(), after=after or BEHAVIOURS, before=before or "select_behavior")
+
+
+class SchoolyardMotivesPlugin(_BuiltinBehaviours):
+    """The schoolyard's motives: attachment to a caregiver, play, fights, rides, watching, wandering.
+
+    Each proposes only for the characters that carry its component, so a scene pays only
     for the motives its characters have.
     """
 
+    name = "motives"
+    systems = MOTIVES
+
+
+class BehavioursPlugin(_BuiltinBehaviours):
+    """The goal behaviours (approach, carry, hug, sit...), their answers and the pain reflex."""
+
     name = "behaviours"
-    systems = BUILTIN_BEHAVIORS
+    systems = GOAL_BEHAVIORS
 
 
 def default_plugins() -> list[Plugin]:
     """Everything built in: what ``Scene()`` and every scene file get."""
-    return [PhysicsPlugin(), ControlPlugin(), BehavioursPlugin()]
+    return [PhysicsPlugin(), ControlPlugin(), SchoolyardMotivesPlugin(), BehavioursPlugin()]
 
 
 def load_builtin_behaviors() -> dict[str, type[Behavior]]:
