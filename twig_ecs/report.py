@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from twig_ecs.clock import FixedStepClock
 from twig_ecs.scene import Scene
 from twig_ecs.soak import Health, SoakLimits
 
@@ -55,7 +56,7 @@ def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: 
 def _measure(
     scene: Scene, seconds: float, progress: bool, recorder=None, limits: SoakLimits | None = None
 ) -> dict:
-    frames = int(round(seconds / scene.dt))
+    frames = FixedStepClock(scene.dt).steps_for(seconds)
     step_ms = np.empty(frames)
     health = Health(scene, limits)
     scene.step(0)  # install systems and compile kernels outside the timings

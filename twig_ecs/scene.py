@@ -65,6 +65,11 @@ class Scene:
         ``plugins`` default to everything built in (:func:`~twig_ecs.plugins.default_plugins`);
         ``Scene(plugins=[PhysicsPlugin()])`` is a world of bodies that nobody moves.
         """
+        plugins = list(default_plugins() if plugins is None else plugins)
+        for plugin in plugins:
+            if not isinstance(plugin, Plugin):
+                raise TwigError(f"Scene(plugins=...) takes Plugin objects, got {plugin!r}"
+                                " (write PhysicsPlugin(), not PhysicsPlugin)")  # fmt: skip
         self.name = name
         self.seed = seed
         self.settings = settings or Settings()
@@ -86,12 +91,13 @@ class Scene:
         self.activate()
         make_deterministic()
         self.behaviors: dict[str, Behavior] = {}
-        self.plugins: list[Plugin] = list(default_plugins() if plugins is None else plugins)
-        for plugin in self.plugins:
-            if not isinstance(plugin, Plugin):
-                raise TwigError(f"Scene(plugins=...) takes Plugin objects, got {plugin!r}"
-                                " (write PhysicsPlugin(), not PhysicsPlugin)")  # fmt: skip
-            plugin.build(self)
+        self.plugins: list[Plugin] = plugins
+        try:
+            for plugin in plugins:
+                plugin.build(self)
+        except BaseException:
+            self.close()  # a plugin that fails leaves no world behind
+            raise
 
     # -- construction -------------------------------------------------------------
 
@@ -101,18 +107,19 @@ class Scene:
         source: str | Path,
         seed: int = 0,
         content: tuple[str | Path, ...] | list[str | Path] = (),
+        plugins: Sequence[Plugin] | None = None,
         **parameters: int | float | str,
     ) -> Scene:
         """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
 
         ``content`` lists extra folders of templates and scenes; keyword ``parameters``
-        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``).
-        The whole file is validated before anything is created; errors raise
-        :class:`SceneError`.
+        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``);
+        ``plugins`` as for ``Scene()`` (default: all built in). The whole file is
+        validated before anything is created; errors raise :class:`SceneError`.
         """
         library = ContentLibrary(content)
         plan = read_scene(source, library, parameters)
-        return cls.from_plan(plan, seed)
+        return cls.from_plan(plan, seed, plugins)
 
     @classmethod
     def from_plan(cls, plan: ScenePlan, seed: int = 0, plugins: Sequence[Plugin] | None = None) -> Scene:

@@ -24,6 +24,7 @@ import esper
 
 from twig_ecs.behavior import BehaviorChanged, GoalDone, GoalFailed
 from twig_ecs.character import CharacterHandle
+from twig_ecs.clock import FixedStepClock
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
@@ -80,7 +81,8 @@ class Server:
         self.port = port
         self.twig_port = twig_port
         self.token = token
-        self.paused = paused
+        #: the simulation's clock: 60 Hz of wall time, at most MAX_CATCH_UP steps to catch up
+        self.clock = FixedStepClock(scene.dt, max_steps=MAX_CATCH_UP, max_elapsed=None, paused=paused)
         self.autonomous = autonomous
         self.window = window
         self.own_scene = own_scene
@@ -242,11 +244,27 @@ class Server:
 
     # -- the simulation ------------------------------------------------------------------------
 
-    def set_paused(self, paused: bool) -> None:
-        self.paused = paused
-        self._next_tick = asyncio.get_running_loop().time()
+    @property
+    def paused(self) -> bool:
+        """Is the simulation paused (it steps only when asked to)?"""
+        return self.clock.paused
 
-    _next_tick = 0.0
+    @paused.setter
+    def paused(self, value: bool) -> None:
+        self.clock.paused = bool(value)
+
+    def set_paused(self, paused: bool) -> None:
+        """Pause or resume; a resumed simulation steps at once, then every 1/60 s."""
+        self.paused = paused
+        self._restart_clock(asyncio.get_running_loop().time())
+
+    def _restart_clock(self, now: float) -> None:
+        """The wall time from ``now`` on counts (not the time spent paused); a step is due now."""
+        self._last_tick = self._next_draw = now
+        self.clock.reset()
+        self.clock.due_now()
+
+    _last_tick = _next_draw = 0.0
 
     async def _run(self) -> None:
         """The simulation task: it never ends on an error, it logs it, pauses and goes on."""
@@ -264,24 +282,23 @@ class Server:
         loop = asyncio.get_running_loop()
         wakeup = self._wakeup
         assert wakeup is not None
-        self._next_tick = loop.time()
-        ticking = False
+        self._restart_clock(loop.time())
+        clock = self.clock
         while True:
             now = loop.time()
-            if now >= self._next_tick and (not self.paused or self.window is not None):
-                if not self.paused:
-                    steps = 0
-                    while now >= self._next_tick and steps < MAX_CATCH_UP and not self.paused:
-                        if not self._try_step():
-                            break
-                        self._next_tick += self.scene.dt
-                        steps += 1
-                    if now >= self._next_tick:  # too far behind: drop the time we cannot catch up
-                        self._next_tick = now + self.scene.dt
-                else:
-                    self._next_tick = now + self.scene.dt
-                if self.window is not None:
-                    self._draw()
+            elapsed, self._last_tick = now - self._last_tick, now
+            ticked = False
+            if not self.paused:
+                steps = clock.advance(elapsed)  # the time it cannot catch up with is dropped
+                ticked = steps > 0
+                for _ in range(steps):
+                    if self.paused or not self._try_step():  # a command or a failed step paused it
+                        break
+            elif self.window is not None and now >= self._next_draw:
+                ticked = True  # paused: the window still draws at 60 Hz
+            if ticked and self.window is not None:
+                self._next_draw = now + clock.dt
+                self._draw()
             budget = time.perf_counter() + COMMAND_BUDGET
             while self._queues:
                 await self._apply(self._next_command())
@@ -291,8 +308,12 @@ class Server:
                 await asyncio.sleep(0)  # let the sockets in before the next batch
                 continue
             wakeup.clear()
-            ticking = not self.paused or self.window is not None
-            timer = loop.call_at(self._next_tick, wakeup.set) if ticking else None
+            if not self.paused:
+                timer = loop.call_at(loop.time() + clock.until_next_step(), wakeup.set)
+            elif self.window is not None:
+                timer = loop.call_at(self._next_draw, wakeup.set)
+            else:
+                timer = None
             await wakeup.wait()
             if timer is not None:
                 timer.cancel()
