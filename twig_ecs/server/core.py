@@ -28,10 +28,12 @@ from twig_ecs.clock import FixedStepClock
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
+from twig_ecs.scene import Scene
 from twig_ecs.server import protocol as rpc
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.server.session import Command, JsonSession, Session
 from twig_ecs.server.twigline import TwigSession
+from twig_ecs.trust import trusting
 
 #: Default ports: JSON-RPC, and the Twig line protocol when it is switched on.
 DEFAULT_PORT = 7470
@@ -384,9 +386,6 @@ class Server:
         checkpoint, since = self._checkpoint, self._checkpoint_frame
         if checkpoint is None or not since <= frame:
             return False
-        from twig_ecs.scene import Scene
-        from twig_ecs.trust import trusting
-
         try:
             with trusting():  # our own snapshot: its plug-ins are already loaded
                 restored = Scene.restore(checkpoint)
