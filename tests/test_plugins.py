@@ -120,6 +120,21 @@ def test_a_user_plugin_puts_its_system_where_its_stage_names_say(scenes):
     assert system_names(restored) == names
 
 
+class Shy(Behavior):
+    """A user behaviour: it proposes nothing, it only has to find its place."""
+
+    name = "shy"
+
+
+def test_a_user_behaviour_proposes_after_the_built_in_ones_and_before_selection(scenes):
+    scene = Scene()
+    scenes.append(scene)
+    scene.add_system(Shy())
+    names = system_names(scene)
+    assert names.index("withdraw") < names.index("shy") == names.index("select_behavior") - 1
+    assert scene.behaviors["shy"].name == "shy"
+
+
 def test_a_plugin_class_instead_of_an_instance_is_refused_with_the_fix(scenes):
     with pytest.raises(TwigError, match=r"write PhysicsPlugin\(\), not PhysicsPlugin"):
         Scene(plugins=[PhysicsPlugin])
