@@ -3,7 +3,8 @@
 The physics systems (integrate, constrain, collide, sense) each make one call per step
 into a numba kernel that loops over the whole :class:`~twig_ecs.store.PhysicsState`;
 the character controllers (gait, gaze, posture, arms, respiration) likewise make one
-call each over the table of characters.
+call each over the table of characters. Which systems a scene runs is up to its plugins
+(:mod:`twig_ecs.plugins`); the order of their stages is :data:`twig_ecs.schedule.PIPELINE`.
 """
 
 from twig_ecs.systems.arms import ArmsSystem

@@ -21,11 +21,12 @@ from server_helpers import RawLines, running_server
 
 from twig_ecs import Scene, TwigError
 from twig_ecs.arguments import REQUIRED, Param
-from twig_ecs.behavior import Behavior, builtin_goal_schemas, load_builtin_behaviors
+from twig_ecs.behavior import Behavior
 from twig_ecs.character import CharacterHandle
 from twig_ecs.client import Client, RemoteError
 from twig_ecs.goaldocs import stale
 from twig_ecs.goals import GoalSchema, seconds
+from twig_ecs.plugins import builtin_goal_schemas, load_builtin_behaviors
 from twig_ecs.server.methods import METHODS, find_method
 from twig_ecs.server.twigline import parse_line
 

@@ -174,13 +174,13 @@ def test_a_client_flooding_batches_does_not_hold_up_another_client():
 
 
 def test_an_answer_over_the_cap_is_an_error_and_a_big_answer_does_not_disconnect(monkeypatch):
-    from twig_ecs.server import core
+    from twig_ecs.server import session
 
     with running_server(paused=True) as srv, RawLines(srv.port, timeout=60) as raw:
-        monkeypatch.setattr(core, "MAX_UNSENT", 1000)  # smaller than one get_state: still sent whole
+        monkeypatch.setattr(session, "MAX_UNSENT", 1000)  # smaller than one get_state: still sent whole
         state = ask(raw, request("get_state", 1))
         assert set(state["result"]["entities"]) == set(srv.server.scene.entity_names)
-        monkeypatch.setattr(core, "MAX_ANSWER", 300)
+        monkeypatch.setattr(session, "MAX_ANSWER", 300)
         answer = ask(raw, request("get_state", 2))
         assert answer["id"] == 2 and "ask for less" in answer["error"]["message"]
         assert ask(raw, request("get_state", 3, name="ball"))["result"]["name"] == "ball"

@@ -11,8 +11,7 @@ Start with :class:`Scene`::
 
 from pathlib import Path as _Path
 
-#: The release; pyproject.toml reads it from here (the one place it is written).
-__version__ = "0.1.0"
+from twig_ecs.version import __version__  # the one place the release number is written
 
 
 def _checkout_subpackages() -> None:
@@ -37,8 +36,17 @@ from twig_ecs.kernels import configure_cache  # noqa: E402
 configure_cache()  # before any kernel module is imported
 
 from twig_ecs.errors import SceneError, ScheduleError, TwigError  # noqa: E402
+from twig_ecs.plugins import (  # noqa: E402
+    BehavioursPlugin,
+    ControlPlugin,
+    PhysicsPlugin,
+    Plugin,
+    SchoolyardMotivesPlugin,
+)
 from twig_ecs.scene import Scene  # noqa: E402
 from twig_ecs.scenefile import Settings  # noqa: E402
 from twig_ecs.system import System  # noqa: E402
 
-__all__ = ["Scene", "SceneError", "ScheduleError", "Settings", "System", "TwigError", "__version__"]
+__all__ = ["BehavioursPlugin", "ControlPlugin", "PhysicsPlugin", "Plugin", "Scene", "SceneError",
+           "SchoolyardMotivesPlugin", "ScheduleError",
+           "Settings", "System", "TwigError", "__version__"]  # fmt: skip

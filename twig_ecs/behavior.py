@@ -20,12 +20,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import esper
 
-from twig_ecs.character import add_goal_method
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Event
 from twig_ecs.goals import GoalSchema
+from twig_ecs.schedule import BEHAVIOURS
 from twig_ecs.system import System
+from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
     from twig_ecs.character import CharacterHandle
@@ -103,6 +104,22 @@ class Mind:
         return self.goals[0] if self.goals else None
 
 
+#: The schema of every goal behaviour class defined so far, by goal name.
+GOAL_SCHEMAS: dict[str, GoalSchema] = {}
+_goal_schema_listeners: list[Callable[[GoalSchema], None]] = []
+
+
+def on_goal_schema(listener: Callable[[GoalSchema], None]) -> None:
+    """Call ``listener(schema)`` for every goal schema, those defined so far and those to come.
+
+    How a higher layer (the character handle's goal methods) follows the goal behaviours
+    without this module importing it.
+    """
+    _goal_schema_listeners.append(listener)
+    for schema in list(GOAL_SCHEMAS.values()):
+        listener(schema)
+
+
 class Behavior(System):
     """Base class of behaviour systems: propose activations, act when winning.
 
@@ -112,6 +129,8 @@ class Behavior(System):
     character's current goal names it.
     """
 
+    #: Every behaviour proposes in the schedule's behaviours stage, before select_behavior.
+    stage: ClassVar[str | None] = BEHAVIOURS
     goal_driven: ClassVar[bool] = False
     #: A goal behaviour's schema (:class:`~twig_ecs.goals.GoalSchema`): the goal's name,
     #: parameters with kinds, defaults and docs. Declaring one makes the behaviour
@@ -144,7 +163,9 @@ class Behavior(System):
                             f"its schema's '{schema.name}' (give the name once, in the schema)")  # fmt: skip
         cls.name = schema.name
         cls.goal_driven = True
-        add_goal_method(schema)
+        GOAL_SCHEMAS[schema.name] = schema
+        for listener in _goal_schema_listeners:
+            listener(schema)
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """The (entity, mind) pairs this behaviour may propose for (a superset is fine).
@@ -210,11 +231,6 @@ class Behavior(System):
         character.scene.end_goal(character, goal, ok, reason)
 
 
-def builtin_goal_schemas() -> list[GoalSchema]:
-    """The schemas of the built-in goal behaviours, in the order they are registered."""
-    return [cls.schema for cls in load_builtin_behaviors().values() if cls.schema is not None]
-
-
 #: Behaviour kinds by name: the systems that implement them (filled by register()).
 REGISTRY: dict[str, type[Behavior]] = {}
 
@@ -241,26 +257,6 @@ def register(cls: type[Behavior]) -> type[Behavior]:
         raise TwigError(f"behaviour class {cls.__name__} needs a name")
     REGISTRY[cls.name] = cls
     return cls
-
-
-def load_builtin_behaviors() -> dict[str, type[Behavior]]:
-    """Import the built-in behaviour systems (they register themselves); return the registry."""
-    from twig_ecs.systems import (  # noqa: F401
-        approach,
-        attachment,
-        carry,
-        fight,
-        grapple,
-        hug,
-        play,
-        posture_goals,
-        ride,
-        wander,
-        watch,
-        withdraw,
-    )
-
-    return {k: v for k, v in REGISTRY.items() if v.__module__.startswith("twig_ecs.")}
 
 
 #: Entry point group through which installed packages offer behaviours.
@@ -316,6 +312,4 @@ def load_class(reference: str, base_dir: str | None = None) -> type:
         return getattr(module, class_name)
     except AttributeError:
         names = [n for n in dir(module) if not n.startswith("_")]
-        from twig_ecs.validate import suggest
-
         raise TwigError(f"'{module_name}' has no '{class_name}'" + suggest(class_name, names)) from None

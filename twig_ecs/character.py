@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import esper
 import numpy as np
 
+from twig_ecs.behavior import Goal, Mind, on_goal_schema
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.handles import BodyHandle
@@ -84,8 +85,6 @@ def make_character(scene: Scene, entity: int, facing: float, spec: CharacterSpec
                 ch.breath_rest[row, k] = links.rest[j]
     _set_braces(scene, body, on=False)
     esper.add_component(entity, Character(row, max_speed=spec.max_speed))
-    from twig_ecs.behavior import Mind
-
     esper.add_component(entity, Mind())
     return row
 
@@ -490,8 +489,6 @@ class CharacterHandle(BodyHandle):
     @property
     def mind(self):
         """The behaviour state: goals, current winner, switch count."""
-        from twig_ecs.behavior import Mind
-
         self.scene.activate()
         return esper.component_for_entity(self.entity, Mind)
 
@@ -513,8 +510,6 @@ class CharacterHandle(BodyHandle):
         The parameters are checked against the behaviour's schema (its
         :class:`~twig_ecs.goals.GoalSchema`) and then against the world: a name must be of
         an entity here (not this character), a ``figure`` one of a body with a head."""
-        from twig_ecs.behavior import Goal
-
         if on_end is not None and not callable(on_end):
             raise TwigError(f"{behavior}: on_end must be a function of the goal, got {on_end!r}")
 
@@ -614,3 +609,6 @@ def add_goal_method(schema: GoalSchema) -> None:
     if not schema.handle_method or (current is not None and not hasattr(current, "goal_schema")):
         return
     setattr(CharacterHandle, schema.name, schema.handle_function())
+
+
+on_goal_schema(add_goal_method)  # every goal behaviour, defined now or later, gets its method

@@ -8,6 +8,7 @@ import json
 import sys
 from collections.abc import Sequence
 
+from twig_ecs.argtypes import positive_seconds, seconds_number  # noqa: F401 - seconds_number: old home
 from twig_ecs.errors import TwigError
 from twig_ecs.trust import trusting
 
@@ -47,24 +48,6 @@ def scene_parameters(args: argparse.Namespace) -> dict[str, str]:
     if getattr(args, "count", None) is not None:
         out["count"] = args.count
     return out
-
-
-def seconds_number(text: str) -> float:
-    """An argparse type: a number of seconds (the command checks its range)."""
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a number of seconds (like 10 or 2.5), got '{text}'"
-        ) from None  # noqa: E501
-
-
-def positive_seconds(text: str) -> float:
-    """An argparse type: seconds, a number > 0 and at most a day."""
-    value = seconds_number(text)
-    if not 0 < value <= 86400:
-        raise argparse.ArgumentTypeError(f"seconds must be > 0 and at most 86400, got {text}")
-    return value
 
 
 def builtin_scenes() -> list[str]:
@@ -189,7 +172,7 @@ def _soak_limits(args: argparse.Namespace):
 
 def _replay(args: argparse.Namespace) -> int:
     """Replay a recorded server session (``--replay FILE``); 0 when it ends in the recorded state."""
-    from twig_ecs.replay import replay
+    from twig_ecs.server.replay import replay
 
     result = replay(args.replay)
     if args.report == "json":
@@ -225,7 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="twig",
         description="twig-ecs: procedural character animation with believable physical interactions.",
     )
-    from twig_ecs import __version__
+    from twig_ecs.version import __version__
 
     parser.add_argument("--version", action="version", version=f"twig-ecs {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -17,6 +17,13 @@ from typing import Any
 
 import esper
 
+_world_ids = itertools.count(1)
+
+
+def new_world_name() -> str:
+    """A fresh esper world name for a scene (a new or a restored one): no two scenes share a world."""
+    return f"twig-scene-{next(_world_ids)}"
+
 
 class EntitySet(dict):
     """The entities having one component type: a set that iterates in insertion order.

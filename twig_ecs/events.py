@@ -1,14 +1,16 @@
-"""Typed world events: dataclass messages queued during a step.
+"""Typed world events: dataclass messages queued during a step, and the bus that carries them.
 
 Systems append events with ``scene.emit(event)``; the queue holds the events of the
 latest step only (it is cleared when the next step begins), and ``scene.event_counts``
 keeps running totals by ``kind``. Handlers registered with ``scene.on(kind, fn)`` are
-called as events are emitted.
+called as events are emitted. A scene keeps all of this in one :class:`EventBus`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 
@@ -62,3 +64,27 @@ class Released(Event):
     joint: int
     holder: int
     held: int
+
+
+@dataclass
+class EventBus:
+    """This step's events, running counts by kind, and the handlers subscribed to each kind."""
+
+    events: list[Event] = field(default_factory=list)
+    counts: Counter[str] = field(default_factory=Counter)
+    handlers: dict[str, list[Callable[[Event], None]]] = field(default_factory=dict)
+
+    def emit(self, event: Event) -> None:
+        """Queue ``event`` for this step, count it and call its handlers (in subscription order)."""
+        self.events.append(event)
+        self.counts[event.kind] += 1
+        for handler in self.handlers.get(event.kind, ()):
+            handler(event)
+
+    def on(self, kind: str, handler: Callable[[Event], None]) -> None:
+        """Call ``handler(event)`` for every event of ``kind`` from now on."""
+        self.handlers.setdefault(kind, []).append(handler)
+
+    def next_step(self) -> None:
+        """Forget the last step's events (the counts run on)."""
+        self.events.clear()

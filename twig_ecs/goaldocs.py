@@ -15,8 +15,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from twig_ecs.arguments import Param
-from twig_ecs.behavior import builtin_goal_schemas
 from twig_ecs.goals import GoalSchema
+from twig_ecs.plugins import builtin_goal_schemas
 
 #: The marker comments round a generated table in a Markdown file.
 BEGIN = "<!-- {name}: generated from the goal schemas by `python -m twig_ecs.goaldocs`; edit those -->"

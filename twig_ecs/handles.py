@@ -36,9 +36,8 @@ class BodyHandle:
 
     def __getattr__(self, attr: str):
         """Only for names a body lacks: a character's command gets an answer saying what to do."""
-        from twig_ecs.character import CharacterHandle
-
-        if attr.startswith("_") or not hasattr(CharacterHandle, attr):
+        # a command of a handle subclass (CharacterHandle): found without importing it upwards
+        if attr.startswith("_") or not any(hasattr(kind, attr) for kind in type(self).__subclasses__()):
             raise AttributeError(f"'{type(self).__name__}' object has no attribute '{attr}'")
         name = self.__dict__.get("name", "?")
         template = self.__dict__.get("scene") and self.body.template

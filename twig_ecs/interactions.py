@@ -39,6 +39,7 @@ from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
 from twig_ecs.systems.collide import closest_segment_params
 from twig_ecs.systems.hug import hands_on_back
+from twig_ecs.systems.play import yard_of
 
 SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
 SPIN_UP = 0.005  # rad/s gained in one step by a turning body: a push (its bearings only slow it)
@@ -141,8 +142,6 @@ class InteractionRecorder:
         self._let_go: dict[tuple[str, str], float] = {}  # (holder, thing) -> time released
         self._held_before: dict[str, set[str]] = {}
         self.hug_pain_events = 0
-        from twig_ecs.systems.play import yard_of
-
         self.yard = yard_of(scene)
         self.outside = 0.0
         self.escaped: set[str] = set()

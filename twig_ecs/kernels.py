@@ -49,7 +49,7 @@ STALE_DAYS = 7
 DEFAULT_KERNEL_COUNT = 20
 #: What a :class:`KernelBuild` worker process runs.
 _WORKER_CODE = (
-    "import sys, json; from twig_ecs.kernels import _worker; sys.exit(_worker(json.loads(sys.argv[1])))"  # noqa: E501
+    "import sys, json; from twig_ecs.kernelworker import work; sys.exit(work(json.loads(sys.argv[1])))"
 )
 _checked = False
 _folder: Path | None = None
@@ -243,6 +243,12 @@ def ensure_compiled() -> None:
     if not is_cached():
         where = f" (cached in {_folder})" if _folder else ""
         print(f"twig: compiling physics kernels, first run only{where}...", file=sys.stderr, flush=True)
+
+
+def announce_no_compile() -> None:
+    """Skip the first-run notice in this process (it compiles on purpose, or already built)."""
+    global _checked
+    _checked = True
 
 
 # -- compiling up front, in worker processes -------------------------------------------------
@@ -566,98 +572,3 @@ def _remember_count(source: str, count: int) -> None:
         path.write_text(json.dumps(counts))
     except (OSError, ValueError):
         pass  # only the progress bar's estimate
-
-
-class _Claimed(Exception):
-    """The other worker is compiling this kernel: skip to the next system."""
-
-
-def _worker(job: dict) -> int:
-    """Compile a scene's kernels by running its systems once (a :class:`KernelBuild` worker).
-
-    A kernel is claimed (a file made with O_EXCL in the build's claims folder) before it
-    compiles; one the other worker has claimed makes this worker skip the rest of that
-    system and come back to it after its first pass, when it is cached.
-    """
-    from numba.core import event
-
-    from twig_ecs import Scene
-    from twig_ecs.trust import trusting
-
-    global _checked
-    _checked = True
-    claims = Path(job["claims"]) if job.get("claims") else None
-    state = {"depth": 0, "second_pass": False}
-    owned: set[str] = set()  # kernels this worker claimed (a second specialisation is ours too)
-
-    class Report(event.Listener):
-        """Claims each of our kernels as it starts compiling; prints ``compiled NAME SECONDS`` after."""
-
-        def on_start(self, ev) -> None:
-            dispatcher = ev.data["dispatcher"]
-            if state["depth"] == 0 and claims is not None:
-                name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
-                if state["second_pass"] and name not in owned and (claims / name).exists():
-                    _wait_for(claims / f"{name}.done")  # the other worker is on it: load it after
-                    state["aborted"] = True
-                    raise _Claimed(name)
-                if name not in owned and not state["second_pass"]:
-                    try:
-                        os.close(os.open(claims / name, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-                    except FileExistsError:
-                        state["aborted"] = True
-                        raise _Claimed(name) from None
-                    owned.add(name)
-            state["depth"] += 1
-            dispatcher._twig_t0 = time.perf_counter()
-
-        def on_end(self, ev) -> None:
-            if state.pop("aborted", False):
-                return  # numba ends the event even when its start raised: nothing compiled
-            state["depth"] -= 1
-            dispatcher = ev.data["dispatcher"]
-            if state["depth"] == 0 and claims is not None:
-                name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}"
-                (claims / f"{name}.done").touch()
-            if dispatcher.py_func.__module__.startswith("twig_ecs"):
-                seconds = time.perf_counter() - getattr(dispatcher, "_twig_t0", time.perf_counter())
-                print(f"compiled {dispatcher.py_func.__name__} {seconds:.2f}", flush=True)
-
-    event.register("numba:compile", Report())
-    with trusting(job.get("trust", False)):
-        scene = Scene.load(job["source"], seed=job["seed"], content=job["content"], **job["parameters"])
-    scene.step(0)  # install the systems
-    if scene.state.colliders_dirty:
-        scene.state.rebuild_colliders()
-    systems = list(scene._installed or ())
-    if job["order"] == "reverse":
-        systems.reverse()
-    skipped = []
-    for system in systems:
-        try:
-            system.process(scene.dt)
-        except _Claimed:
-            skipped.append(system)
-        except Exception:  # noqa: BLE001 - out of order a system may trip; the other worker runs it in order
-            if job["order"] != "reverse":
-                raise
-    state["second_pass"] = True
-    for system in skipped:  # what the other worker compiled now loads from the cache
-        for _ in range(8):  # each try waits for one kernel the other worker is compiling
-            try:
-                system.process(scene.dt)
-                break
-            except _Claimed:
-                continue
-            except Exception:  # noqa: BLE001 - as above
-                if job["order"] != "reverse":
-                    raise
-                break
-    return 0
-
-
-def _wait_for(path: Path, timeout: float = 120.0) -> None:
-    """Wait until ``path`` exists (the other worker finished a kernel), at most ``timeout`` s."""
-    end = time.monotonic() + timeout
-    while not path.exists() and time.monotonic() < end:
-        time.sleep(0.05)

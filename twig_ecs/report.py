@@ -9,7 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from twig_ecs.clock import FixedStepClock
+from twig_ecs.metrics import StoryRecorder
 from twig_ecs.scene import Scene
+from twig_ecs.snapshot import save as save_snapshot
 from twig_ecs.soak import Health, SoakLimits
 
 
@@ -30,8 +33,6 @@ def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: 
     ``scene``: run this already loaded scene (a restored snapshot) instead of ``source``;
     ``seconds`` then counts from its current time. ``save``: write a snapshot at the end.
     """
-    from twig_ecs.metrics import StoryRecorder
-
     if scene is None:
         scene = Scene.load(source, seed=seed, content=content, **(parameters or {}))
     try:
@@ -44,8 +45,6 @@ def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: 
         if plot:
             recorder.plot(plot)
         if save:
-            from twig_ecs.snapshot import save as save_snapshot
-
             save_snapshot(scene, save)
         return report
     finally:
@@ -55,7 +54,7 @@ def run_with_report(source: str | Path, seconds: float, seed: int = 0, content: 
 def _measure(
     scene: Scene, seconds: float, progress: bool, recorder=None, limits: SoakLimits | None = None
 ) -> dict:
-    frames = int(round(seconds / scene.dt))
+    frames = FixedStepClock(scene.dt).steps_for(seconds)
     step_ms = np.empty(frames)
     health = Health(scene, limits)
     scene.step(0)  # install systems and compile kernels outside the timings

@@ -1,8 +1,10 @@
 """The Scene: one esper world plus the resources esper lacks, stepped at a fixed 60 Hz.
 
 A Scene owns its world (and switches to it whenever it runs), the
-:class:`~twig_ecs.store.PhysicsState` store, the clock, one seeded RNG, the settings,
-the named system schedule and a typed event queue. Scenes never share entities.
+:class:`~twig_ecs.store.PhysicsState` store, one seeded RNG, the settings, the named
+system schedule (filled by its plugins, :mod:`twig_ecs.plugins`) and an
+:class:`~twig_ecs.events.EventBus`. Scenes never share entities. Store surgery for grab
+joints and removals is in :mod:`twig_ecs.grabs`; the fixed step in :mod:`twig_ecs.clock`.
 """
 
 from __future__ import annotations
@@ -11,32 +13,33 @@ import hashlib
 import itertools
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import esper
 import numpy as np
 
+from twig_ecs import grabs as grab_joints
+from twig_ecs import snapshot
 from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
-from twig_ecs.components import Body, Character, GrabJoint, Link, Memory, Name, Node
+from twig_ecs.clock import STEP, FixedStepClock
+from twig_ecs.components import Character, GrabJoint, Link, Memory, Name, Node
 from twig_ecs.errors import SceneError, TwigError
-from twig_ecs.esperworld import make_deterministic
-from twig_ecs.events import Event, Grabbed, Released
+from twig_ecs.esperworld import make_deterministic, new_world_name
+from twig_ecs.events import Event, EventBus
+from twig_ecs.grabs import RELEASE_GRACE_STEPS  # noqa: F401 - its old home; tests and plug-ins read it here
 from twig_ecs.handles import BodyHandle
 from twig_ecs.kernels import ensure_compiled
 from twig_ecs.library import ContentLibrary
-from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_scene
+from twig_ecs.plugins import Plugin, default_plugins
+from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_entity, read_scene
 from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
-from twig_ecs.store import LINK_GRAB, PhysicsState
+from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
-
-#: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
-RELEASE_GRACE_STEPS = 20
-
-_world_ids = itertools.count(1)
+from twig_ecs.yamldoc import YDict
 
 
 class Scene:
@@ -47,7 +50,7 @@ class Scene:
     """
 
     #: The fixed simulation step (s).
-    dt: float = 1.0 / 60.0
+    dt: float = STEP
 
     def __init__(
         self,
@@ -55,7 +58,18 @@ class Scene:
         seed: int = 0,
         settings: Settings | None = None,
         library: ContentLibrary | None = None,
+        plugins: Sequence[Plugin] | None = None,
     ) -> None:
+        """An empty world whose schedule holds the systems of ``plugins``.
+
+        ``plugins`` default to everything built in (:func:`~twig_ecs.plugins.default_plugins`);
+        ``Scene(plugins=[PhysicsPlugin()])`` is a world of bodies that nobody moves.
+        """
+        plugins = list(default_plugins() if plugins is None else plugins)
+        for plugin in plugins:
+            if not isinstance(plugin, Plugin):
+                raise TwigError(f"Scene(plugins=...) takes Plugin objects, got {plugin!r}"
+                                " (write PhysicsPlugin(), not PhysicsPlugin)")  # fmt: skip
         self.name = name
         self.seed = seed
         self.settings = settings or Settings()
@@ -63,12 +77,10 @@ class Scene:
         self.state = PhysicsState()
         self.rng = np.random.default_rng(seed)
         self.frame = 0
-        self.events: list[Event] = []
-        self.event_counts: Counter[str] = Counter()
-        self._handlers: dict[str, list[Callable[[Event], None]]] = {}
+        self.bus = EventBus()
         self._names: dict[str, int] = {}
         self._name_by_entity: dict[int, str] = {}  # the reverse of _names: handles are made per step
-        self._world = f"twig-scene-{next(_world_ids)}"
+        self._world = new_world_name()
         self._closed = False
         self.schedule = Schedule()
         self._installed: list[System] | None = None
@@ -78,25 +90,14 @@ class Scene:
         self.goals_made = 0  # goal ids count per scene, so a restored or replayed scene numbers alike
         self.activate()
         make_deterministic()
-        from twig_ecs import systems as s
-        from twig_ecs.behavior import load_builtin_behaviors
-
         self.behaviors: dict[str, Behavior] = {}
-        for system in (s.IntegrateSystem(), s.ConstrainSystem(), s.CollideSystem(), s.SenseSystem(),
-                       s.GaitSystem()):  # fmt: skip
-            self.add_system(system)
-        self.add_system(s.AttentionSystem(), after="sense", before="select_behavior")
-        # behaviours propose activations before select_behavior picks and runs the winners
-        for behavior in load_builtin_behaviors().values():
-            self.add_system(behavior(), after="sense", before="select_behavior")
-        self.add_system(s.SelectBehaviorSystem())
-        self.add_system(s.PatrolSystem(), after="select_behavior", before="gait")
-        # the low-level controllers sit with posture: gaze first (posture turns the
-        # shoulders after the face), then posture, arms and breathing
-        self.add_system(s.GazeSystem(), after="gait", before="posture")
-        self.add_system(s.PostureSystem())
-        self.add_system(s.ArmsSystem(), after="posture", before="render")
-        self.add_system(s.RespirationSystem(), after="arms", before="render")
+        self.plugins: list[Plugin] = plugins
+        try:
+            for plugin in plugins:
+                plugin.build(self)
+        except BaseException:
+            self.close()  # a plugin that fails leaves no world behind
+            raise
 
     # -- construction -------------------------------------------------------------
 
@@ -106,23 +107,24 @@ class Scene:
         source: str | Path,
         seed: int = 0,
         content: tuple[str | Path, ...] | list[str | Path] = (),
+        plugins: Sequence[Plugin] | None = None,
         **parameters: int | float | str,
     ) -> Scene:
         """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
 
         ``content`` lists extra folders of templates and scenes; keyword ``parameters``
-        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``).
-        The whole file is validated before anything is created; errors raise
-        :class:`SceneError`.
+        set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``);
+        ``plugins`` as for ``Scene()`` (default: all built in). The whole file is
+        validated before anything is created; errors raise :class:`SceneError`.
         """
         library = ContentLibrary(content)
         plan = read_scene(source, library, parameters)
-        return cls.from_plan(plan, seed)
+        return cls.from_plan(plan, seed, plugins)
 
     @classmethod
-    def from_plan(cls, plan: ScenePlan, seed: int = 0) -> Scene:
-        """Build a scene from a validated :class:`ScenePlan`."""
-        scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library)
+    def from_plan(cls, plan: ScenePlan, seed: int = 0, plugins: Sequence[Plugin] | None = None) -> Scene:
+        """Build a scene from a validated :class:`ScenePlan` (with ``plugins``, default all)."""
+        scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library, plugins=plugins)
         scene.source = plan.file
         scene.parameters = dict(plan.parameters)
         try:
@@ -188,9 +190,6 @@ class Scene:
         ``pain`` ({threshold, half_life, gain} or False), ``damping`` ({air, ground}).
         The name defaults to ``template`` plus a number; it must be unique.
         """
-        from twig_ecs.scenefile import read_entity
-        from twig_ecs.yamldoc import YDict
-
         if name is None:
             name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self._names)
         if name in self._names:
@@ -212,42 +211,10 @@ class Scene:
                 if other != entity and name in (goal.params.get("target"), goal.params.get("to"),
                                                 goal.params.get("on")):  # fmt: skip
                     self.end_goal(self.character_handle(other), goal, False, f"'{name}' was removed")
-        body = esper.component_for_entity(entity, Body)
-        doomed = {entity}
-        remap = self.state.remove_body(body.index)
-        for e, node in list(esper.get_component(Node)):
-            if node.body == entity:
-                doomed.add(e)
-        for e, link in list(esper.get_component(Link)):
-            if link.body == entity:
-                doomed.add(e)
-        for e, grab in list(esper.get_component(GrabJoint)):
-            if entity in (grab.holder, grab.held):
-                doomed.add(e)
-        for e in doomed:
-            esper.delete_entity(e, immediate=True)
-        self._apply_remap(remap)
+        grab_joints.remove_body(self, entity)
         del self._names[name]
         del self._name_by_entity[entity]
         self._goal_holders.pop(entity, None)
-
-    def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
-        """Follow a store compaction: rewrite every row index held by components."""
-        nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
-        for _, node in esper.get_component(Node):
-            node.index = int(nodes[node.index])
-        for _, link in esper.get_component(Link):
-            link.index = int(links[link.index])
-        for _, grab in esper.get_component(GrabJoint):
-            grab.index = int(links[grab.index])
-        for _, body in esper.get_component(Body):
-            body.index = int(bodies[body.index])
-            body.node_start = int(nodes[body.node_start])
-            body.link_start = int(links[body.link_start]) if body.link_count else 0
-        live_grabs = {e for e, _ in esper.get_component(GrabJoint)}
-        for _, character in esper.get_component(Character):
-            character.index = int(remap["characters"][character.index])
-            character.holding = {h: g for h, g in character.holding.items() if g in live_grabs}
 
     # -- grab joints --------------------------------------------------------------------
 
@@ -260,50 +227,12 @@ class Scene:
         Returns the grab joint's entity; :meth:`release` removes it.
         """
         self.activate()
-        h, t = self.entity(holder), self.entity(target)
-        if h.entity == t.entity:
-            raise TwigError(f"'{holder}' cannot grab itself")
-        a, b = h._row(node), t._row(target_node)
-        links = self.state.links
-        row = links.allocate(1).start
-        links.a[row], links.b[row] = a, b
-        # the joint starts at the nodes' distance and closes at GRAB_CLOSING m/s (see
-        # ConstrainSystem): a hand pulls the thing in, it does not snap to it
-        links.rest[row] = float(np.linalg.norm(self.state.nodes.pos[a] - self.state.nodes.pos[b]))
-        links.min_rest[row] = max(0.0, float(standoff))
-        links.flags[row] = LINK_GRAB
-        links.body[row] = h.body.index
-        entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
-        links.entity[row] = entity
-        self.state.version += 1
-        self.state.colliders_dirty = True  # the hand and what it holds stop colliding
-        self.emit(Grabbed(entity, h.entity, t.entity, node))
-        return entity
+        return grab_joints.join(self, self.entity(holder), node, self.entity(target), target_node, standoff)
 
     def release(self, grab: int) -> None:
         """Remove a grab joint made by :meth:`grab` (its entity id)."""
         self.activate()
-        joint = esper.try_component(grab, GrabJoint)
-        if joint is None:
-            raise TwigError(f"no grab joint {grab}")
-        links = self.state.links
-        # the hand slides back out of what it held without being flung off it
-        self.state.release_grace(links.a[joint.index], links.b[joint.index], RELEASE_GRACE_STEPS)
-        keep = np.ones(links.count, dtype=bool)
-        keep[joint.index] = False
-        remap = links.keep(keep)
-        self.emit(Released(grab, joint.holder, joint.held))
-        esper.delete_entity(grab, immediate=True)
-        for _, character in esper.get_component(Character):
-            character.holding = {h: g for h, g in character.holding.items() if g != grab}
-        for _, link in esper.get_component(Link):
-            link.index = int(remap[link.index])
-        for _, other in esper.get_component(GrabJoint):
-            other.index = int(remap[other.index])
-        for _, body in esper.get_component(Body):
-            if body.link_count:
-                body.link_start = int(remap[body.link_start])
-        self.state.rebuild_colliders()
+        grab_joints.release(self, grab)
 
     def grabs(self) -> list[tuple[int, GrabJoint]]:
         """All grab joints as (entity, GrabJoint)."""
@@ -346,55 +275,74 @@ class Scene:
         if esper.current_world != self._world:
             esper.switch_world(self._world)
 
-    def step(self, n: int = 1) -> None:
-        """Advance ``n`` fixed steps of 1/60 s."""
+    def step(self, n: int = 1, times: dict[str, list[float]] | None = None) -> None:
+        """Advance ``n`` fixed steps of 1/60 s: the one step loop.
+
+        Each step: release grace counts down, colliders are rebuilt if bodies or grabs
+        changed, the last step's events are dropped, then every system runs once in
+        schedule order. ``times``: also append each system's wall seconds to
+        ``times[name]`` (``twig bench``); timing a step never changes what it computes.
+        """
         self.activate()
         if self._installed is None:
             self._install()
         ensure_compiled()
+        state, dt = self.state, self.dt
         for _ in range(n):
-            self.state.tick_released()
-            if self.state.colliders_dirty:
-                self.state.rebuild_colliders()
-            self.events.clear()
-            esper.process(self.dt)
+            state.tick_released()
+            if state.colliders_dirty:
+                state.rebuild_colliders()
+            self.bus.next_step()
+            esper.clear_dead_entities()  # entities deleted with deferred delete go now
+            if times is None:
+                for system in self._installed:
+                    system.process(dt)
+            else:
+                clock = time.perf_counter
+                for system in self._installed:
+                    t0 = clock()
+                    system.process(dt)
+                    times.setdefault(system.name, []).append(clock() - t0)
             self.frame += 1
 
     def step_timed(self, times: dict[str, list[float]]) -> float:
-        """One step like :meth:`step`, timing each system; returns the step's wall time (s).
-
-        Appends each system's seconds to ``times[name]`` (for ``twig bench``).
-        """
-        clock = time.perf_counter
-        start = clock()
+        """One :meth:`step`, timing each system into ``times``; returns the step's wall time (s)."""
         self.step(0)  # activate, install, compile: nothing when already done
-        if self.state.colliders_dirty:
-            self.state.rebuild_colliders()
-        self.events.clear()
-        esper.clear_dead_entities()  # as esper.process does before the processors
-        for system in self._installed or ():
-            t0 = clock()
-            system.process(self.dt)
-            times.setdefault(system.name, []).append(clock() - t0)
-        self.frame += 1
-        return clock() - start
+        start = time.perf_counter()
+        self.step(1, times)
+        return time.perf_counter() - start
 
     def run(self, seconds: float) -> None:
         """Advance by ``seconds`` of simulated time (rounded to whole steps)."""
-        self.step(int(round(seconds / self.dt)))
+        self.step(FixedStepClock(self.dt).steps_for(seconds))
 
     # -- events -----------------------------------------------------------------------
 
+    @property
+    def events(self) -> list[Event]:
+        """The events of the latest step (cleared when the next step begins)."""
+        return self.bus.events
+
+    @property
+    def event_counts(self) -> Counter[str]:
+        """Running totals of events by kind since the scene started."""
+        return self.bus.counts
+
+    @property
+    def _handlers(self) -> dict[str, list[Callable[[Event], None]]]:
+        return self.bus.handlers
+
+    @_handlers.setter
+    def _handlers(self, handlers: dict[str, list[Callable[[Event], None]]]) -> None:
+        self.bus.handlers = handlers
+
     def emit(self, event: Event) -> None:
         """Queue an event for this step and call its handlers."""
-        self.events.append(event)
-        self.event_counts[event.kind] += 1
-        for handler in self._handlers.get(event.kind, ()):
-            handler(event)
+        self.bus.emit(event)
 
     def on(self, kind: str, handler: Callable[[Event], None]) -> None:
         """Call ``handler(event)`` for every event of ``kind`` (``"contact"``, ``"pain"``...)."""
-        self._handlers.setdefault(kind, []).append(handler)
+        self.bus.on(kind, handler)
 
     # -- reading ------------------------------------------------------------------------
 
@@ -488,9 +436,7 @@ class Scene:
 
         :meth:`restore` rebuilds it; the file layout is in :mod:`twig_ecs.snapshot`.
         """
-        from twig_ecs.snapshot import snapshot
-
-        return snapshot(self)
+        return snapshot.snapshot(self)
 
     @classmethod
     def restore(cls, data: bytes) -> Scene:
@@ -499,9 +445,7 @@ class Scene:
         Snapshot files are trusted input (they may name plug-in code to import); a corrupt,
         truncated or other-version file raises :class:`~twig_ecs.snapshot.SnapshotError`.
         """
-        from twig_ecs.snapshot import restore
-
-        return restore(data)
+        return snapshot.restore(data)
 
     # -- lifetime ------------------------------------------------------------------------
 
@@ -523,3 +467,6 @@ class Scene:
 
     def __repr__(self) -> str:
         return f"<Scene '{self.name}' t={self.time:.2f}s bodies={self.state.bodies.count}>"
+
+
+snapshot.register_scene_class(Scene)

@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from twig_ecs.behavior import Behavior, installed_behaviors, load_builtin_behaviors, load_class
+from twig_ecs.behavior import Behavior, installed_behaviors, load_class
 from twig_ecs.character import ARM_POSES, CHARACTER_KEYS, START_COMMANDS, CharacterSpec
 from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.parameters import read_parameters, resolve, substitute
+from twig_ecs.plugins import load_builtin_behaviors
 from twig_ecs.store import ROLES
 from twig_ecs.system import System
 from twig_ecs.templates import (
@@ -374,8 +375,6 @@ def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
             fail(item, "use", join(here, "use"), f"'{reference}' is not a twig_ecs System subclass")
         before = read(item, "before", here, text, None)
         after = read(item, "after", here, text, None)
-        if issubclass(cls, Behavior) and before is None and after is None:
-            after, before = "sense", "select_behavior"  # behaviours propose before selection
         out.append(SystemSpec(cls, read(item, "name", here, text, None), before, after, (item, here)))
     return out
 
@@ -423,8 +422,7 @@ def read_behaviors(raw: YDict, path: str, known: dict, systems: list[SystemSpec]
                 except Exception as exc:  # a broken installed plug-in
                     fail(item, "use", join(here, "use"), f"cannot load behaviour '{name}': {exc}")
                 known[name] = cls
-                systems.append(SystemSpec(cls, None, "select_behavior", None, (item, here)))
-                systems[-1].before, systems[-1].after = "select_behavior", "sense"
+                systems.append(SystemSpec(cls, None, None, None, (item, here)))  # joins the behaviours stage
             else:
                 hint = suggest(name, list(known) + list(installed))
                 fail(item, "use", join(here, "use"), f"unknown behaviour '{name}'" + hint)

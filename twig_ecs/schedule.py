@@ -1,10 +1,17 @@
 """The named system schedule: stages in order, with before=/after= insertion.
 
-The default pipeline (SPEC, DESIGN) is::
+:data:`PIPELINE` is the one place the order of a step is written (SPEC, DESIGN)::
 
-    integrate -> constrain -> collide -> sense -> select_behavior -> gait -> posture -> render
+    integrate -> constrain -> collide -> sense              (physics plugin)
+    -> attention -> behaviours -> select_behavior -> patrol
+    -> gait -> gaze -> posture -> arms -> respiration        (control and behaviour plugins)
+    -> render
 
-Built-in stages without a system yet are anchors that user systems can order against.
+Plugins (:mod:`twig_ecs.plugins`) fill these stages with their systems; a stage no
+system has filled stays as an anchor that user systems can order against. A *set*
+stage (:data:`BEHAVIOURS`) takes any number of systems: a system whose class names it
+as its ``stage`` joins it when added without ``before``/``after`` (every behaviour
+proposes its activations there, before ``select_behavior`` picks the winners).
 The order is resolved once (a topological sort that keeps insertion order where the
 constraints allow) and mapped onto esper processor priorities; a cycle or an unknown
 stage name is a :class:`~twig_ecs.errors.ScheduleError`.
@@ -18,8 +25,29 @@ from twig_ecs.errors import ScheduleError
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
-#: The built-in stages, in order.
-PIPELINE = ("integrate", "constrain", "collide", "sense", "select_behavior", "gait", "posture", "render")
+#: The stage where behaviours propose activations: a set of any number of systems.
+BEHAVIOURS = "behaviours"
+
+#: The built-in stages, in order: the order of one step, written once.
+PIPELINE = (
+    "integrate",  # physics: Verlet step of every node
+    "constrain",  # physics: links, limits and grab joints
+    "collide",  # physics: capsule contacts, ground and props
+    "sense",  # physics: impacts become contact and pain events
+    "attention",  # control: what each character notices and remembers
+    BEHAVIOURS,  # behaviours: every behaviour proposes its activation
+    "select_behavior",  # control: each character's winner acts (writes the motor targets)
+    "patrol",  # control: scripted walking routes
+    "gait",  # control: stepping feet towards the walk vector
+    "gaze",  # control: head and eyes (before posture turns the shoulders after the face)
+    "posture",  # control: pelvis, spine and balance
+    "arms",  # control: reaching hands
+    "respiration",  # control: breathing
+    "render",  # anchor for drawing and recording systems
+)
+
+#: Where a user system with no ``before``/``after`` (and no ``stage``) goes: after the controllers.
+DEFAULT_AFTER = "posture"
 
 
 @dataclass
@@ -48,9 +76,13 @@ class Schedule:
         """Put ``system`` in the stage ``name`` (default: ``system.name``).
 
         A built-in anchor stage of that name takes the system; a new name becomes a new
-        stage ordered by ``before``/``after`` (default: after ``posture``).
+        stage ordered by ``before``/``after``. Without either, a system whose class names a
+        set ``stage`` (a behaviour: :data:`BEHAVIOURS`) joins that set, and any other goes
+        after :data:`DEFAULT_AFTER`.
         """
         name = name or system.name or type(system).__name__
+        if before is None and after is None and getattr(system, "stage", None) and name not in self.stages:
+            after, before = system.stage, _next_stage(system.stage)
         for ref in (before, after):
             if ref is not None and ref not in self.stages:
                 raise ScheduleError(f"unknown stage '{ref}'" + suggest(ref, self.stages))
@@ -59,7 +91,7 @@ class Schedule:
         if stage is None:
             stage = Stage(name)
             if before is None and after is None:
-                after = "posture"
+                after = DEFAULT_AFTER
             self.stages[name] = stage
         elif stage.system is not None:
             raise ScheduleError(
@@ -104,6 +136,14 @@ class Schedule:
     def names(self) -> list[str]:
         """Stage names in run order (anchors included)."""
         return [s.name for s in self.order()]
+
+
+def _next_stage(stage: str) -> str | None:
+    """The built-in stage after ``stage`` (the end of a set stage), or None."""
+    if stage not in PIPELINE:
+        raise ScheduleError(f"unknown stage '{stage}'" + suggest(stage, PIPELINE))
+    at = PIPELINE.index(stage) + 1
+    return PIPELINE[at] if at < len(PIPELINE) else None
 
 
 def _cycle(stages: dict[str, Stage]) -> str:

@@ -44,13 +44,18 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import esper
+
 from twig_ecs import esperworld
+from twig_ecs.behavior import Mind
 from twig_ecs.errors import TwigError
+from twig_ecs.kernels import ensure_compiled
 from twig_ecs.trust import UntrustedCode, check_snapshot_plugin
+from twig_ecs.version import __version__
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: a scene holds its plugins and an event bus
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
@@ -140,8 +145,6 @@ def snapshot(scene) -> bytes:
         scene._handlers = handlers  # noqa: SLF001
         for goal, on_end in callbacks:
             goal.on_end = on_end
-    from twig_ecs import __version__
-
     meta = {
         "twig_ecs": __version__,
         "scene": scene.name,
@@ -169,10 +172,6 @@ def save(scene, path: str | Path) -> dict[str, Any]:
 
 
 def _goals(scene) -> list:
-    import esper
-
-    from twig_ecs.behavior import Mind
-
     return [goal for _, mind in esper.get_component(Mind) for goal in mind.goals]
 
 
@@ -236,11 +235,24 @@ class _Pickler(pickle.Pickler):
         return NotImplemented
 
 
+#: The scene class (:class:`~twig_ecs.scene.Scene` registers itself when it is defined): a
+#: snapshot holds one of it or of a subclass, nothing else.
+_scene_classes: list[type] = []
+
+
+def register_scene_class(cls: type) -> None:
+    """Name the class whose objects (or whose subclasses' objects) snapshots hold."""
+    if cls not in _scene_classes:
+        _scene_classes.append(cls)
+
+
+def _is_scene_class(cls: object) -> bool:
+    return isinstance(cls, type) and any(issubclass(cls, base) for base in _scene_classes)
+
+
 def _new_scene(cls: type) -> Any:
     """An empty scene object of class ``cls``, to be filled from the snapshot."""
-    from twig_ecs.scene import Scene
-
-    if not (isinstance(cls, type) and issubclass(cls, Scene)):
+    if not _is_scene_class(cls):
         raise SnapshotError("snapshot corrupt: it does not hold a scene")
     return cls.__new__(cls)
 
@@ -296,11 +308,6 @@ def _split(data: bytes) -> tuple[dict[str, Any], bytes]:
 
 def restore(data: bytes):
     """A new :class:`~twig_ecs.scene.Scene` from snapshot bytes (see :meth:`Scene.restore`)."""
-    import esper
-
-    from twig_ecs.kernels import ensure_compiled
-    from twig_ecs.scene import Scene, _world_ids
-
     meta, payload = _split(data)
     allowed = _import_plugins(meta.get("plugins", []))
     try:
@@ -309,9 +316,9 @@ def restore(data: bytes):
         raise
     except Exception as exc:
         raise SnapshotError(f"snapshot unreadable: {type(exc).__name__}: {exc}") from None
-    if not isinstance(scene, Scene) or not isinstance(world, dict):
+    if not _is_scene_class(type(scene)) or not isinstance(world, dict):
         raise SnapshotError("snapshot corrupt: it does not hold a scene")
-    scene._world = f"twig-scene-{next(_world_ids)}"  # noqa: SLF001
+    scene._world = esperworld.new_world_name()  # noqa: SLF001
     scene._closed = False  # noqa: SLF001
     scene._installed = None  # noqa: SLF001 - systems are re-installed as esper processors
     previous = esper.current_world

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import esper
 
@@ -16,9 +16,13 @@ class System(esper.Processor):
     Subclasses set ``name`` (the stage name others order against) and implement
     :meth:`process`, which is called once per fixed step with ``dt`` in seconds.
     :meth:`setup` runs once when the scene adds the system (after ``self.scene`` is set).
+    A class may name a set ``stage`` of the schedule (like ``"behaviours"``) that its
+    systems join when they are added without ``before``/``after``.
     """
 
     name: str = ""
+    #: The set stage this kind of system joins by default (see :mod:`twig_ecs.schedule`).
+    stage: ClassVar[str | None] = None
     scene: Scene
 
     def setup(self) -> None:

@@ -1,8 +1,9 @@
 """``twig play``: a pyglet window that runs a scene and draws it with the shared renderer.
 
 :class:`Viewer` holds everything that is not pyglet: the scene, the camera, the fixed-step
-clock (60 Hz with an accumulator, at most ``MAX_STEPS_PER_FRAME`` steps per drawn frame,
-drawing interpolated by the leftover fraction), selection, overlays and the key bindings.
+clock (a :class:`~twig_ecs.clock.FixedStepClock`: at most ``MAX_STEPS_PER_FRAME`` steps per
+drawn frame, drawing interpolated by the leftover fraction), selection, overlays and the
+key bindings.
 :func:`open_window` wraps it in a pyglet window; tests drive that window frame by frame
 with :meth:`PlayWindow.frame`.
 
@@ -26,12 +27,14 @@ import numpy as np
 import pyglet
 from PIL import Image
 
+from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics.camera import CameraSpec, OrbitCamera
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
 from twig_ecs.graphics.renderer import Renderer
 
 MAX_STEPS_PER_FRAME = 8  # a slower frame drops time instead of spiralling
+MAX_FRAME_GAP = 0.25  # s: a longer gap between frames (a drag of the window) counts as this long
 PAN_SPEED = 0.6  # WASD: distances per second
 TURN_SPEED = 90.0  # Q/E: degrees per second
 ORBIT_DEG_PER_PIXEL = 0.3
@@ -100,8 +103,8 @@ class Viewer:
         self.scene.step(0)  # compile kernels and install systems now, not in the first frame
         self.camera_spec = camera or CameraSpec()
         self.camera: OrbitCamera | None = None  # made at the first frame, when the aspect is known
-        self.paused = paused
-        self.accumulator = 0.0
+        self.clock = FixedStepClock(self.scene.dt, max_steps=MAX_STEPS_PER_FRAME, max_elapsed=MAX_FRAME_GAP,
+                                    paused=paused)  # fmt: skip
         self.alpha = 1.0
         self.restart_clock = True
         self.show_help = False
@@ -126,28 +129,36 @@ class Viewer:
 
     # -- clock ------------------------------------------------------------------------
 
+    @property
+    def paused(self) -> bool:
+        """Is the clock paused (Space)?"""
+        return self.clock.paused
+
+    @paused.setter
+    def paused(self, value: bool) -> None:
+        self.clock.paused = bool(value)
+
+    @property
+    def accumulator(self) -> float:
+        """Simulated seconds the clock owes (less than one step after :meth:`advance`)."""
+        return self.clock.accumulator
+
+    @accumulator.setter
+    def accumulator(self, value: float) -> None:
+        self.clock.accumulator = value
+
     def advance(self, elapsed: float) -> int:
         """Run as many fixed steps as ``elapsed`` seconds of wall time allow; return them."""
         if self.restart_clock:  # the time spent loading a scene is not simulated time
             elapsed, self.restart_clock = 0.0, False
         self._move_camera(elapsed)
-        if self.paused:
-            self.accumulator = 0.0
-            self.alpha = 1.0
-            return 0
-        dt = self.scene.dt
-        self.accumulator += min(elapsed, 0.25)
-        steps = int(self.accumulator / dt)
-        if steps > MAX_STEPS_PER_FRAME:
-            steps = MAX_STEPS_PER_FRAME
-            self.accumulator = steps * dt  # drop the time we cannot catch up with
+        steps = self.clock.advance(elapsed)
         if steps:
             t0 = time.perf_counter()
             self.scene.step(steps)
             self._own_steps += steps
             self.stats.add_steps((time.perf_counter() - t0) * 1000.0, steps)
-            self.accumulator -= steps * dt
-        self.alpha = min(1.0, self.accumulator / dt)
+        self.alpha = self.clock.fraction
         return steps
 
     def _move_camera(self, elapsed: float) -> None:
@@ -211,7 +222,7 @@ class Viewer:
             return
         self.scene.close()
         self.scene = fresh
-        self.accumulator = 0.0
+        self.clock.reset()
         self.restart_clock = True
         if self.selected not in fresh.entity_names:
             self.selected, self.follow = None, False

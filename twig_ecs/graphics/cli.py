@@ -6,6 +6,8 @@ import argparse
 import sys
 from collections.abc import Callable
 
+from twig_ecs.argtypes import seconds_number
+
 
 def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
     """Add ``play`` and ``render`` to the ``twig`` parser's subcommands."""
@@ -24,8 +26,6 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
 
     p = subparsers.add_parser("render", help="run a scene offscreen and write a PNG, GIF or MP4")
     add_scene_args(p)
-    from twig_ecs.cli import seconds_number
-
     p.add_argument("--seconds", type=seconds_number, default=2.0, help="simulated seconds (default 2)")
     p.add_argument("-o", "--output", required=True, metavar="FILE",
                    help="output file: .png (last frame), .gif or .mp4 (every frame)")  # fmt: skip

@@ -134,7 +134,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     try:
         recorder = None
         if args.record:
-            from twig_ecs.replay import Recorder
+            from twig_ecs.server.replay import Recorder
 
             recorder = Recorder(args.record, args.scene, args.seed, args.content, args.autonomous)
         server = Server(

@@ -13,43 +13,35 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import hmac
 import inspect
-import itertools
 import sys
 import time
 import traceback
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
 import esper
 
 from twig_ecs.behavior import BehaviorChanged, GoalDone, GoalFailed
 from twig_ecs.character import CharacterHandle
+from twig_ecs.clock import FixedStepClock
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
+from twig_ecs.scene import Scene
 from twig_ecs.server import protocol as rpc
-from twig_ecs.server.methods import METHODS, Method, bind, find_method
 from twig_ecs.server.protocol import RPCError
-from twig_ecs.validate import suggest
+from twig_ecs.server.session import Command, JsonSession, Session
+from twig_ecs.server.twigline import TwigSession
+from twig_ecs.trust import trusting
 
 #: Default ports: JSON-RPC, and the Twig line protocol when it is switched on.
 DEFAULT_PORT = 7470
 DEFAULT_TWIG_PORT = 10001
-#: Unanswered requests one JSON-RPC client may have queued before it is no longer read.
-MAX_INFLIGHT = 64
-#: Unsent bytes to one client beyond which it is disconnected as too slow.
-MAX_UNSENT = 8 << 20
-#: Longest answer line (bytes): a bigger one is replaced by an error saying to ask for less.
-MAX_ANSWER = 4 << 20
 #: Frames between the checkpoints a failed step is rolled back from (and after every command).
 CHECKPOINT_EVERY = 120
 #: Seconds a client of a server with a token has to authenticate before it is disconnected.
 AUTH_TIMEOUT = 30.0
-#: Most requests in one JSON-RPC batch.
-MAX_BATCH = 256
 #: Most simulation steps run to catch up after a stall (then the clock drops the rest).
 MAX_CATCH_UP = 5
 #: Longest the loop spends applying queued commands before stepping again (s).
@@ -58,228 +50,6 @@ COMMAND_BUDGET = 0.008
 READ_ONLY = frozenset(
     {"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume", "step"}
 )  # step: only steps, which the rollback replays
-_session_ids = itertools.count(1)
-
-
-@dataclass(slots=True)
-class Command:
-    """A checked request waiting for the simulation loop."""
-
-    session: Session
-    method: Method
-    params: dict[str, Any]
-    done: Callable[[Any, RPCError | None], None]
-
-
-class Session:
-    """One connected client. Subclasses speak JSON-RPC or the Twig line protocol."""
-
-    inflight_limit = MAX_INFLIGHT
-
-    def __init__(self, server: Server, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        self.server = server
-        self.reader = reader
-        self.writer = writer
-        self.id = next(_session_ids)
-        self.peer = writer.get_extra_info("peername")
-        self.subscriptions: set[str] = set()
-        self.authenticated = server.token is None
-        self.inflight = asyncio.Semaphore(self.inflight_limit)
-        self.closed = False
-        self.ending = False  # a wrong token (or a call before auth): the connection is closing
-
-    # -- output (never waits) --------------------------------------------------------------
-
-    def write(self, data: bytes) -> None:
-        if self.closed:
-            return
-        behind = self.writer.transport.get_write_buffer_size()  # before this answer: it may be big
-        self.writer.write(data)
-        unsent = self.writer.transport.get_write_buffer_size()
-        if behind > MAX_UNSENT:
-            self.server.log(f"client {self.peer} is {unsent >> 20} MiB behind: disconnected")
-            self.abort()
-
-    def abort(self) -> None:
-        if not self.closed:
-            self.closed = True
-            self.writer.transport.abort()
-
-    def send_event(self, kind: str, params: dict[str, Any]) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    # -- input -------------------------------------------------------------------------------
-
-    async def greet(self) -> None:
-        """Anything sent on connect."""
-
-    async def serve(self) -> None:
-        """Read lines until the client goes; each is handled without waiting for its answer."""
-        lines = rpc.LineReader(self.reader)
-        try:
-            await self.greet()
-            while not self.closed and not self.ending:
-                if self.writer.transport.get_write_buffer_size() > 1 << 20:
-                    await self.writer.drain()  # it is not reading: stop reading it too
-                await self.inflight.acquire()
-                if self.authenticated:
-                    line = await lines.next()
-                else:  # an idle connection that never authenticates does not hold a socket for ever
-                    try:
-                        line = await asyncio.wait_for(lines.next(), self.server.auth_timeout)
-                    except TimeoutError:
-                        self.server.log(f"client {self.peer} sent no token in {self.server.auth_timeout:g} s")
-                        break
-                if line is None:
-                    break
-                if line is rpc.TOO_LONG:
-                    self.handle_too_long()
-                    continue
-                self.handle_line(line)
-        except (ConnectionError, asyncio.IncompleteReadError):
-            pass
-        finally:
-            self.closed = True
-            self.writer.close()
-
-    def handle_too_long(self) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def handle_line(self, line: bytes) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def call(
-        self, name: str, params: dict[str, Any] | list[Any], done: Callable[[Any, RPCError | None], None]
-    ) -> None:
-        """Check and run (or queue) one call; ``done(result, error)`` is called exactly once."""
-        if self.ending:  # refused once: nothing more from this connection runs, batch included
-            done(None, RPCError(rpc.UNAUTHORIZED, "refused: this connection is closing"))
-            return
-        if not self.authenticated and name != "auth":  # before auth, not even the method list
-            done(None, RPCError(rpc.UNAUTHORIZED, "this server needs a token: send auth first"))
-            self.close_soon()
-            return
-        method = find_method(name, self.server.scene)
-        if method is None:
-            done(None, RPCError(rpc.METHOD_NOT_FOUND, f"unknown method '{name}'" + suggest(name, METHODS)))
-            return
-        try:
-            params = bind(method, params)
-        except RPCError as exc:
-            done(None, exc)
-            return
-        except RecursionError:  # JSON nested just under the parser's limit
-            done(None, RPCError(rpc.INVALID_PARAMS, f"{name}: parameters nested too deeply"))
-            return
-        if name == "auth":
-            token = self.server.token
-            if token is not None and not hmac.compare_digest(params["token"].encode(), token.encode()):
-                done(None, RPCError(rpc.UNAUTHORIZED, "wrong token"))
-                self.close_soon()
-                return
-            self.authenticated = True
-        if method.queued:
-            self.server.submit(Command(self, method, params, done))
-        else:
-            done(method.fn(self.server, self, **params), None)
-
-    def close_soon(self) -> None:
-        """Run nothing more; close once the answers to the current line are written."""
-        self.ending = True
-        asyncio.get_running_loop().call_soon(self._close_now)
-
-    def _close_now(self) -> None:
-        if not self.closed:
-            self.closed = True
-            self.writer.close()
-
-
-def _too_big(obj: Any, size: int) -> Any:
-    """An error answer (or batch of them) in place of an answer of ``size`` bytes."""
-    message = (f"the answer is {size / (1 << 20):.1f} MiB, over the {MAX_ANSWER >> 20} MiB limit: "
-               "ask for less (get_state NAME for one entity, list_entities for names)")  # fmt: skip
-    error = RPCError(rpc.INTERNAL_ERROR, message)
-    if isinstance(obj, list):
-        return [rpc.error_response(a.get("id"), error) for a in obj if isinstance(a, dict)]
-    return rpc.error_response(obj.get("id") if isinstance(obj, dict) else None, error)
-
-
-class JsonSession(Session):
-    """A JSON-RPC 2.0 client: one request (or batch) per line, answers by id."""
-
-    def send_event(self, kind: str, params: dict[str, Any]) -> None:
-        self.write(rpc.dumps(rpc.notification(kind, params)))
-
-    def _send(self, obj: Any) -> None:
-        data = rpc.dumps(obj)
-        if len(data) > MAX_ANSWER:  # one answer must not swamp the client (nor the server's memory)
-            data = rpc.dumps(_too_big(obj, len(data)))
-        self.write(data)
-
-    def handle_too_long(self) -> None:
-        error = RPCError(rpc.INVALID_REQUEST, f"request line longer than {rpc.MAX_LINE} bytes: refused")
-        self._send(rpc.error_response(None, error))
-        self.inflight.release()
-
-    def handle_line(self, line: bytes) -> None:
-        if not line.strip():
-            self.inflight.release()
-            return
-        try:
-            obj = rpc.loads(line)
-        except RPCError as exc:
-            self._send(rpc.error_response(None, exc))
-            self.inflight.release()
-            return
-        if isinstance(obj, list):
-            self._batch(obj)
-        else:
-            self._one(obj, self._finish_line)
-
-    def _finish_line(self, answer: dict[str, Any] | None) -> None:
-        if answer is not None:
-            self._send(answer)
-        self.inflight.release()
-
-    def _one(self, obj: Any, done: Callable[[dict[str, Any] | None], None]) -> None:
-        try:
-            request = rpc.parse_request(obj)
-        except RPCError as exc:
-            done(rpc.error_response(rpc.request_id(obj), exc))
-            return
-
-        def answer(result: Any, error: RPCError | None) -> None:
-            if request.notify:
-                done(None)
-            elif error is not None:
-                done(rpc.error_response(request.id, error))
-            else:
-                done(rpc.response(request.id, result))
-
-        self.call(request.method, request.params, answer)
-
-    def _batch(self, items: list[Any]) -> None:
-        if not items:
-            self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, "empty batch")))
-            return
-        if len(items) > MAX_BATCH:
-            message = f"a batch of {len(items)} requests: at most {MAX_BATCH} (send several lines)"
-            self._finish_line(rpc.error_response(None, RPCError(rpc.INVALID_REQUEST, message)))
-            return
-        answers: list[dict[str, Any] | None] = [None] * len(items)
-        left = [len(items)]
-
-        def one_done(k: int, answer: dict[str, Any] | None) -> None:
-            answers[k] = answer
-            left[0] -= 1
-            if left[0] == 0:
-                out = [a for a in answers if a is not None]
-                if out:
-                    self._send(out)
-                self.inflight.release()
-
-        for k, item in enumerate(items):
-            self._one(item, lambda answer, k=k: one_done(k, answer))
 
 
 class Server:
@@ -313,7 +83,8 @@ class Server:
         self.port = port
         self.twig_port = twig_port
         self.token = token
-        self.paused = paused
+        #: the simulation's clock: 60 Hz of wall time, at most MAX_CATCH_UP steps to catch up
+        self.clock = FixedStepClock(scene.dt, max_steps=MAX_CATCH_UP, max_elapsed=None, paused=paused)
         self.autonomous = autonomous
         self.window = window
         self.own_scene = own_scene
@@ -368,8 +139,6 @@ class Server:
         self._listeners.append(listener)
         self.port = listener.sockets[0].getsockname()[1]
         if self.twig_port is not None:
-            from twig_ecs.server.twigline import TwigSession
-
             listener = await asyncio.start_server(self._accept(TwigSession), self.host, self.twig_port)
             self._listeners.append(listener)
             self.twig_port = listener.sockets[0].getsockname()[1]
@@ -477,11 +246,27 @@ class Server:
 
     # -- the simulation ------------------------------------------------------------------------
 
-    def set_paused(self, paused: bool) -> None:
-        self.paused = paused
-        self._next_tick = asyncio.get_running_loop().time()
+    @property
+    def paused(self) -> bool:
+        """Is the simulation paused (it steps only when asked to)?"""
+        return self.clock.paused
 
-    _next_tick = 0.0
+    @paused.setter
+    def paused(self, value: bool) -> None:
+        self.clock.paused = bool(value)
+
+    def set_paused(self, paused: bool) -> None:
+        """Pause or resume; a resumed simulation steps at once, then every 1/60 s."""
+        self.paused = paused
+        self._restart_clock(asyncio.get_running_loop().time())
+
+    def _restart_clock(self, now: float) -> None:
+        """The wall time from ``now`` on counts (not the time spent paused); a step is due now."""
+        self._last_tick = self._next_draw = now
+        self.clock.reset()
+        self.clock.due_now()
+
+    _last_tick = _next_draw = 0.0
 
     async def _run(self) -> None:
         """The simulation task: it never ends on an error, it logs it, pauses and goes on."""
@@ -499,24 +284,23 @@ class Server:
         loop = asyncio.get_running_loop()
         wakeup = self._wakeup
         assert wakeup is not None
-        self._next_tick = loop.time()
-        ticking = False
+        self._restart_clock(loop.time())
+        clock = self.clock
         while True:
             now = loop.time()
-            if now >= self._next_tick and (not self.paused or self.window is not None):
-                if not self.paused:
-                    steps = 0
-                    while now >= self._next_tick and steps < MAX_CATCH_UP and not self.paused:
-                        if not self._try_step():
-                            break
-                        self._next_tick += self.scene.dt
-                        steps += 1
-                    if now >= self._next_tick:  # too far behind: drop the time we cannot catch up
-                        self._next_tick = now + self.scene.dt
-                else:
-                    self._next_tick = now + self.scene.dt
-                if self.window is not None:
-                    self._draw()
+            elapsed, self._last_tick = now - self._last_tick, now
+            ticked = False
+            if not self.paused:
+                steps = clock.advance(elapsed)  # the time it cannot catch up with is dropped
+                ticked = steps > 0
+                for _ in range(steps):
+                    if self.paused or not self._try_step():  # a command or a failed step paused it
+                        break
+            elif self.window is not None and now >= self._next_draw:
+                ticked = True  # paused: the window still draws at 60 Hz
+            if ticked and self.window is not None:
+                self._next_draw = now + clock.dt
+                self._draw()
             budget = time.perf_counter() + COMMAND_BUDGET
             while self._queues:
                 await self._apply(self._next_command())
@@ -526,8 +310,12 @@ class Server:
                 await asyncio.sleep(0)  # let the sockets in before the next batch
                 continue
             wakeup.clear()
-            ticking = not self.paused or self.window is not None
-            timer = loop.call_at(self._next_tick, wakeup.set) if ticking else None
+            if not self.paused:
+                timer = loop.call_at(loop.time() + clock.until_next_step(), wakeup.set)
+            elif self.window is not None:
+                timer = loop.call_at(self._next_draw, wakeup.set)
+            else:
+                timer = None
             await wakeup.wait()
             if timer is not None:
                 timer.cancel()
@@ -598,9 +386,6 @@ class Server:
         checkpoint, since = self._checkpoint, self._checkpoint_frame
         if checkpoint is None or not since <= frame:
             return False
-        from twig_ecs.scene import Scene
-        from twig_ecs.trust import trusting
-
         try:
             with trusting():  # our own snapshot: its plug-ins are already loaded
                 restored = Scene.restore(checkpoint)

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING, Any
 
 from twig_ecs.arguments import ArgumentError, Param, check_plain
 from twig_ecs.arguments import bind as bind_arguments
-from twig_ecs.behavior import builtin_goal_schemas
 from twig_ecs.character import CharacterHandle
 from twig_ecs.goals import GoalSchema
+from twig_ecs.plugins import builtin_goal_schemas
 from twig_ecs.server.protocol import INVALID_PARAMS, NOT_NOW, RPCError
 
 if TYPE_CHECKING:

@@ -19,11 +19,11 @@ import json
 import re
 from typing import Any
 
-from twig_ecs import __version__
 from twig_ecs.server import protocol as rpc
-from twig_ecs.server.core import MAX_ANSWER, Session
 from twig_ecs.server.methods import find_method
 from twig_ecs.server.protocol import RPCError
+from twig_ecs.server.session import MAX_ANSWER, Session
+from twig_ecs.version import __version__
 
 #: Object names that address the server itself rather than an entity.
 SERVER_OBJECTS = ("server", "world", "twig")

@@ -1,0 +1,229 @@
+"""The package's layers: no import cycles, and pyproject's import-linter contracts hold.
+
+The import graph is read from the source files the package is built from - the folders
+``[tool.setuptools.package-dir]`` maps into ``twig_ecs`` (``twig_ecs/``, ``systems/``,
+``components/``, ``content/``) - with every import statement, function-level ones
+included (a function-level import is still a dependency; it only runs later). Imports
+under ``if TYPE_CHECKING:`` are left out: they never run.
+"""
+
+from __future__ import annotations
+
+import ast
+import io
+import tomllib
+from contextlib import redirect_stdout
+from pathlib import Path
+
+import grimp
+from importlinter import configuration
+from importlinter.application.app_config import settings
+from importlinter.application.ports.building import GraphBuilder
+from importlinter.application.use_cases import SUCCESS, lint_imports
+
+ROOT = Path(__file__).resolve().parent.parent
+PYPROJECT = ROOT / "pyproject.toml"
+
+
+def package_modules(root: Path = ROOT) -> dict[str, Path]:
+    """Module name -> source file, for every module pyproject's package-dir maps into the package."""
+    mapping = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+    modules: dict[str, Path] = {}
+    for package, folder in mapping.items():
+        mapped_below = [p for p in mapping if p.startswith(package + ".")]
+        for path in sorted((root / folder).rglob("*.py")):
+            parts = list(path.relative_to(root / folder).with_suffix("").parts)
+            if "__pycache__" in parts:
+                continue
+            if parts[-1] == "__init__":
+                parts.pop()
+            name = ".".join([package, *parts])
+            if not any(name == p or name.startswith(p + ".") for p in mapped_below):
+                modules[name] = path
+    return modules
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def module_imports(name: str, path: Path, known: set[str]) -> list[tuple[str, int, str]]:
+    """(imported module, line, line text) for each import of a package module in ``path``.
+
+    ``from a.b import c`` imports ``a.b.c`` when that is a module, else ``a.b``.
+    """
+    source = path.read_text()
+    lines = source.splitlines()
+    is_package = path.name == "__init__.py"
+    found: list[tuple[str, int, str]] = []
+
+    def resolve(dotted: str) -> str | None:
+        while dotted and dotted not in known:
+            dotted = dotted.rpartition(".")[0]
+        return dotted or None
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                for other in child.orelse:
+                    visit_one(other)
+            else:
+                visit_one(child)
+
+    def visit_one(child: ast.AST) -> None:
+        targets: list[str] = []
+        if isinstance(child, ast.Import):
+            targets = [alias.name for alias in child.names]
+        elif isinstance(child, ast.ImportFrom):
+            base = child.module or ""
+            if child.level:
+                package = name if is_package else name.rpartition(".")[0]
+                for _ in range(child.level - 1):
+                    package = package.rpartition(".")[0]
+                base = f"{package}.{base}" if base else package
+            targets = [f"{base}.{alias.name}" for alias in child.names]
+        else:
+            visit(child)
+            return
+        for target in targets:
+            module = resolve(target)
+            if module is not None and module != name:
+                found.append((module, child.lineno, lines[child.lineno - 1].strip()))
+
+    visit(ast.parse(source, str(path)))
+    return found
+
+
+def package_graph(root: Path = ROOT) -> grimp.ImportGraph:
+    """The package's import graph (a grimp graph, as import-linter checks)."""
+    modules = package_modules(root)
+    graph = grimp.ImportGraph()
+    for name in modules:
+        graph.add_module(name)
+    for name, path in modules.items():
+        for imported, line, text in module_imports(name, path, set(modules)):
+            graph.add_import(importer=name, imported=imported, line_number=line, line_contents=text)
+    return graph
+
+
+def import_cycles(graph: grimp.ImportGraph) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each as a cycle path."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+
+    def connect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.find_modules_directly_imported_by(v)):
+            if w not in index:
+                connect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                components.append(sorted(component))
+
+    for module in sorted(graph.modules):
+        if module not in index:
+            connect(module)
+    cycles = []
+    for component in components:  # the shortest cycle through each component's first module, to read
+        start, inside = component[0], set(component)
+        loops = [(start, *graph.find_shortest_chain(importer=nxt, imported=start))
+                 for nxt in sorted(graph.find_modules_directly_imported_by(start) & inside)]  # fmt: skip
+        cycles.append(list(min(loops, key=len)))
+    return cycles
+
+
+class _PackageGraphBuilder(GraphBuilder):
+    """Hands import-linter the graph of the whole package (grimp alone would miss systems/)."""
+
+    def build(self, root_package_names, cache_dir, include_external_packages=False,
+              exclude_type_checking_imports=False) -> grimp.ImportGraph:  # fmt: skip
+        assert root_package_names == ["twig_ecs"], root_package_names
+        assert exclude_type_checking_imports, "the graph never holds TYPE_CHECKING imports"
+        return package_graph()
+
+
+def test_the_graph_holds_every_module_of_the_package():
+    graph = package_graph()
+    for name in ("twig_ecs.scene", "twig_ecs.systems.integrate", "twig_ecs.components.physics",
+                 "twig_ecs.server.core", "twig_ecs.graphics.app"):  # fmt: skip
+        assert name in graph.modules
+    assert "twig_ecs.store" in graph.find_modules_directly_imported_by("twig_ecs.systems.integrate")
+    assert len(graph.modules) > 80
+
+
+def test_the_package_has_no_import_cycle():
+    cycles = import_cycles(package_graph())
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    graph = grimp.ImportGraph()
+    for a, b in (("p.a", "p.b"), ("p.b", "p.c"), ("p.c", "p.a"), ("p.c", "p.d")):
+        graph.add_import(importer=a, imported=b)
+    assert import_cycles(graph) == [["p.a", "p.b", "p.c", "p.a"]]
+
+
+def _lint(builder: GraphBuilder) -> tuple[bool, str]:
+    """Run import-linter on pyproject's contracts over ``builder``'s graph: (passed, its report)."""
+    configuration.configure()
+    settings.configure(GRAPH_BUILDER=builder)
+    try:
+        with redirect_stdout(io.StringIO()) as out:
+            passed = lint_imports(str(PYPROJECT), cache_dir=None, no_logo=True, is_debug_mode=True) == SUCCESS
+    finally:
+        configuration.configure()  # the stock graph builder again
+    return passed, out.getvalue()
+
+
+def test_the_import_contracts_in_pyproject_hold():
+    passed, report = _lint(_PackageGraphBuilder())
+    assert passed, "import-linter contracts broken:\n" + report
+    assert "2 kept, 0 broken" in report
+
+
+def test_a_lower_layer_importing_a_higher_one_breaks_the_layers_contract():
+    configuration.configure()
+
+    class WithBadImport(_PackageGraphBuilder):
+        def build(self, *args, **kwargs) -> grimp.ImportGraph:
+            graph = super().build(*args, **kwargs)
+            graph.add_import(importer="twig_ecs.store", imported="twig_ecs.scene", line_number=1,
+                             line_contents="from twig_ecs.scene import Scene")  # fmt: skip
+            return graph
+
+    passed, report = _lint(WithBadImport())
+    assert not passed and "twig_ecs.store -> twig_ecs.scene" in report
+    assert "0 kept, 2 broken" in report  # a layer broken, and a cycle made (store <-> scene)
+
+
+def test_every_module_has_a_layer():
+    """A new module must be placed in a layer, or the layers contract would not check it."""
+    config = tomllib.loads(PYPROJECT.read_text(encoding="utf-8"))["tool"]["importlinter"]["contracts"]
+    layers = next(c["layers"] for c in config if c["type"] == "layers")
+    placed = {name.strip() for layer in layers for name in layer.split(":")}
+    unplaced = sorted(
+        module
+        for module in package_graph().modules
+        if module.count(".") >= 1  # the package itself and subpackages' __init__ sit above the layers
+        and not any(module == p or module.startswith(p + ".") for p in placed)
+        and module not in ("twig_ecs.systems", "twig_ecs.components", "twig_ecs.content")
+    )
+    assert not unplaced, f"modules in no layer of pyproject's import-linter contract: {unplaced}"

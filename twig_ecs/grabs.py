@@ -1,0 +1,116 @@
+"""Grab joints and store surgery: the rows and entities that must change together.
+
+A grab joint is a link row in the store (flagged :data:`~twig_ecs.store.LINK_GRAB`) plus
+a :class:`~twig_ecs.components.GrabJoint` entity. Making one, removing one and removing a
+body all move store rows, so every component holding a row index is rewritten here, in
+one place, right after the store moves them.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import esper
+import numpy as np
+
+from twig_ecs.components import Body, Character, GrabJoint, Link, Node
+from twig_ecs.errors import TwigError
+from twig_ecs.events import Grabbed, Released
+from twig_ecs.store import LINK_GRAB
+
+if TYPE_CHECKING:
+    from twig_ecs.handles import BodyHandle
+    from twig_ecs.scene import Scene
+
+#: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
+RELEASE_GRACE_STEPS = 20
+
+
+def join(scene: Scene, h: BodyHandle, node: str, t: BodyHandle, target_node: str, standoff: float) -> int:
+    """Add a closing link from ``h``'s ``node`` to ``t``'s ``target_node``; returns the joint's entity.
+
+    See :meth:`Scene.grab <twig_ecs.scene.Scene.grab>`.
+    """
+    if h.entity == t.entity:
+        raise TwigError(f"'{h.name}' cannot grab itself")
+    state = scene.state
+    a, b = h._row(node), t._row(target_node)
+    links = state.links
+    row = links.allocate(1).start
+    links.a[row], links.b[row] = a, b
+    # the joint starts at the nodes' distance and closes at GRAB_CLOSING m/s (see
+    # ConstrainSystem): a hand pulls the thing in, it does not snap to it
+    links.rest[row] = float(np.linalg.norm(state.nodes.pos[a] - state.nodes.pos[b]))
+    links.min_rest[row] = max(0.0, float(standoff))
+    links.flags[row] = LINK_GRAB
+    links.body[row] = h.body.index
+    entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
+    links.entity[row] = entity
+    state.version += 1
+    state.colliders_dirty = True  # the hand and what it holds stop colliding
+    scene.emit(Grabbed(entity, h.entity, t.entity, node))
+    return entity
+
+
+def release(scene: Scene, grab: int) -> None:
+    """Remove the grab joint ``grab`` (its entity): its link row, its entity and who held it."""
+    joint = esper.try_component(grab, GrabJoint)
+    if joint is None:
+        raise TwigError(f"no grab joint {grab}")
+    state = scene.state
+    links = state.links
+    # the hand slides back out of what it held without being flung off it
+    state.release_grace(links.a[joint.index], links.b[joint.index], RELEASE_GRACE_STEPS)
+    keep = np.ones(links.count, dtype=bool)
+    keep[joint.index] = False
+    remap = links.keep(keep)
+    scene.emit(Released(grab, joint.holder, joint.held))
+    esper.delete_entity(grab, immediate=True)
+    for _, character in esper.get_component(Character):
+        character.holding = {h: g for h, g in character.holding.items() if g != grab}
+    for _, link in esper.get_component(Link):
+        link.index = int(remap[link.index])
+    for _, other in esper.get_component(GrabJoint):
+        other.index = int(remap[other.index])
+    for _, body in esper.get_component(Body):
+        if body.link_count:
+            body.link_start = int(remap[body.link_start])
+    state.rebuild_colliders()
+
+
+def remove_body(scene: Scene, entity: int) -> None:
+    """Remove a body's rows from the store and its node, link and grab-joint entities from the world."""
+    body = esper.component_for_entity(entity, Body)
+    doomed = {entity}
+    remap = scene.state.remove_body(body.index)
+    for e, node in list(esper.get_component(Node)):
+        if node.body == entity:
+            doomed.add(e)
+    for e, link in list(esper.get_component(Link)):
+        if link.body == entity:
+            doomed.add(e)
+    for e, grab in list(esper.get_component(GrabJoint)):
+        if entity in (grab.holder, grab.held):
+            doomed.add(e)
+    for e in doomed:
+        esper.delete_entity(e, immediate=True)
+    follow_remap(remap)
+
+
+def follow_remap(remap: dict[str, np.ndarray]) -> None:
+    """Follow a store compaction: rewrite every row index held by components."""
+    nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
+    for _, node in esper.get_component(Node):
+        node.index = int(nodes[node.index])
+    for _, link in esper.get_component(Link):
+        link.index = int(links[link.index])
+    for _, grab in esper.get_component(GrabJoint):
+        grab.index = int(links[grab.index])
+    for _, body in esper.get_component(Body):
+        body.index = int(bodies[body.index])
+        body.node_start = int(nodes[body.node_start])
+        body.link_start = int(links[body.link_start]) if body.link_count else 0
+    live_grabs = {e for e, _ in esper.get_component(GrabJoint)}
+    for _, character in esper.get_component(Character):
+        character.index = int(remap["characters"][character.index])
+        character.holding = {h: g for h, g in character.holding.items() if g in live_grabs}

@@ -1,0 +1,287 @@
+"""Record a served session and replay it headless: ``twig serve --record`` / ``twig run --replay``.
+
+A replay file is JSON lines. The first line says what was served, with the files
+themselves so the replay needs nothing else::
+
+    {"twig_replay": 1, "scene": "schoolyard", "seed": 0, "content": [], "autonomous": true,
+     "files": {"scene": {"path": ..., "text": ...}, "content": {DIR: {"bodies/x.yaml": TEXT}}}}
+
+then one line per command the server applied, with the frame it was applied at (after
+that many steps) and the error it gave, if any::
+
+    {"frame": 120, "method": "hug", "params": {"character": "small_child", ...}, "error": null}
+
+and, when the server stops, ``{"end": FRAME, "state_hash": HASH}``. Replaying loads the
+same scene and seed, steps to each command's frame, applies it through the same method
+function as the server did, steps to the end frame and compares the state hash.
+A replay file is data (see :mod:`twig_ecs.trust`): it writes only its embedded ``.yaml``
+files, only inside its temporary folder, and its scene runs no plug-in file unless the
+user passes ``--trust``; frames past :data:`MAX_FRAMES` are refused.
+Only commands that reached the simulation are recorded: requests refused while being
+checked (bad JSON, bad parameters) never touch the world. ``pause``, ``resume`` and
+``step`` are clock controls: their effect is in the frame numbers.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import IO, Any
+
+from twig_ecs.errors import TwigError
+from twig_ecs.library import ContentLibrary
+from twig_ecs.scene import Scene
+from twig_ecs.server.core import Server
+from twig_ecs.server.methods import bind, find_method
+from twig_ecs.server.protocol import RPCError
+from twig_ecs.trust import loading_data
+
+FORMAT_VERSION = 1
+#: Latest frame a replay may name (24 h at 60 Hz): a replay never runs for ever.
+MAX_FRAMES = 24 * 3600 * 60
+#: Methods whose effect on the world is only the passing of time (already in the frame numbers).
+CLOCK_METHODS = ("pause", "resume", "step")
+
+
+class ReplayError(TwigError):
+    """A replay file that cannot be read or replayed."""
+
+
+class HeadlessSession:
+    """Stands in for a client session when commands are applied without a socket (replay)."""
+
+    def __init__(self) -> None:
+        self.subscriptions: set[str] = set()
+        self.authenticated = True
+
+
+def _jsonable(value: Any) -> Any:
+    """Bound parameters as JSON (vectors are tuples)."""
+    if isinstance(value, tuple | list):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    return value
+
+
+def scene_files(source: str | Path, content: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
+    """The scene file's text and every YAML file of the content folders, to embed in a recording."""
+    path = ContentLibrary(content).scene_path(source)
+    out: dict[str, Any] = {
+        "scene": {"path": str(path), "text": path.read_text(encoding="utf-8")},
+        "content": {},
+    }
+    for folder in content:
+        files = sorted(Path(folder).glob("*.yaml")) + sorted(Path(folder).glob("*/*.yaml"))
+        out["content"][str(folder)] = {
+            str(f.relative_to(folder)): f.read_text(encoding="utf-8") for f in files
+        }
+    return out
+
+
+class Recorder:
+    """Writes a replay file as a server applies commands (see the module docstring)."""
+
+    def __init__(self, path: str | Path, source: str | Path, seed: int, content: list | tuple = (),
+                 autonomous: bool = True) -> None:  # fmt: skip
+        header = {
+            "twig_replay": FORMAT_VERSION,
+            "scene": str(source),
+            "seed": seed,
+            "content": [str(c) for c in content],
+            "autonomous": autonomous,
+            "files": scene_files(source, content),
+        }
+        try:
+            self.file: IO[str] | None = open(path, "w", encoding="utf-8")  # noqa: SIM115 - open until close()
+        except OSError as exc:
+            raise ReplayError(f"cannot write replay file '{path}': {exc.strerror}") from None
+        self.commands = 0
+        self._write(header)
+
+    def _write(self, obj: dict[str, Any]) -> None:
+        if self.file is not None:
+            self.file.write(json.dumps(obj) + "\n")
+            self.file.flush()  # a crash keeps what was applied so far
+
+    def command(self, frame: int, method: str, params: dict[str, Any], error: str | None) -> None:
+        """One applied command: the frame it landed at, its checked parameters, its error."""
+        self.commands += 1
+        self._write({"frame": frame, "method": method, "params": _jsonable(params), "error": error})
+
+    def close(self, frame: int, state_hash: str, note: str | None = None) -> None:
+        """The end of the session: the final frame and state hash (once)."""
+        if self.file is None:
+            return
+        end: dict[str, Any] = {"end": frame, "state_hash": state_hash}
+        if note:
+            end["note"] = note
+        self._write(end)
+        self.file.close()
+        self.file = None
+
+
+def read_replay(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:
+    """(header, commands, end) of a replay file; ReplayError if it is not one."""
+    try:
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ReplayError(f"cannot read replay file '{path}': {exc}") from None
+    try:
+        items = [json.loads(line) for line in lines if line.strip()]
+    except ValueError as exc:
+        raise ReplayError(f"'{path}' is not a replay file (bad JSON line: {exc})") from None
+    if not items or not isinstance(items[0], dict) or "twig_replay" not in items[0]:
+        raise ReplayError(f"'{path}' is not a replay file (no twig_replay header)")
+    header = items[0]
+    if header["twig_replay"] != FORMAT_VERSION:
+        raise ReplayError(
+            f"replay format version {header['twig_replay']}; this twig-ecs reads {FORMAT_VERSION}"
+        )
+    _check_header(header, path)
+    end = items[-1] if len(items) > 1 and isinstance(items[-1], dict) and "end" in items[-1] else None
+    commands = items[1 : len(items) - (1 if end else 0)]
+    for k, item in enumerate(commands):
+        ok = isinstance(item, dict) and _is_frame(item.get("frame")) and isinstance(item.get("method"), str)
+        if not ok or not isinstance(item.get("params") or {}, dict):
+            raise ReplayError(
+                f"'{path}': line {k + 2} is not a command record "
+                f"(needs frame: 0..{MAX_FRAMES}, method: a name, params: an object)"
+            )
+    if end is not None and not _is_frame(end.get("end")):
+        raise ReplayError(f"'{path}': the end line's 'end' must be a frame number 0..{MAX_FRAMES}")
+    return header, commands, end
+
+
+def _is_frame(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_FRAMES
+
+
+def _check_header(header: dict[str, Any], path: str | Path) -> None:
+    """The header's fields have the types a replay needs (ReplayError naming the first that does not)."""
+    checks = {
+        "scene": lambda v: isinstance(v, str),
+        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool),
+        "content": lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v),
+        "autonomous": lambda v: isinstance(v, bool),
+        "files": lambda v: v is None or _files_ok(v),
+    }
+    for key, ok in checks.items():
+        if key in header and not ok(header[key]):
+            raise ReplayError(f"'{path}': the header's '{key}' has the wrong type ({header[key]!r:.60})")
+    if not isinstance(header.get("scene"), str):
+        raise ReplayError(f"'{path}': the header names no scene")
+
+
+def _files_ok(files: Any) -> bool:
+    if not isinstance(files, dict):
+        return False
+    scene = files.get("scene") or {}
+    content = files.get("content") or {}
+    return (
+        isinstance(scene, dict)
+        and all(isinstance(scene.get(k), str) for k in ("path", "text") if k in scene)
+        and isinstance(content, dict)
+        and all(isinstance(t, dict) and all(isinstance(r, str) and isinstance(x, str) for r, x in t.items())
+                for t in content.values())
+    )  # fmt: skip
+
+
+def _inside(root: Path, rel: str) -> Path:
+    """``root / rel`` for an embedded YAML file, refusing anything that would land outside ``root``."""
+    where = Path(rel)
+    target = (root / where).resolve()
+    if where.is_absolute() or ".." in where.parts or not target.is_relative_to(root.resolve()):
+        raise ReplayError(f"the replay embeds a file named '{rel}': it would be written outside its folder")
+    if where.suffix not in (".yaml", ".yml"):
+        raise ReplayError(f"the replay embeds '{rel}'; a replay carries only .yaml files")
+    return target
+
+
+def _load_scene(header: dict[str, Any], folder: Path):
+    """The recorded scene: from the recorded paths if unchanged, else from the embedded copies."""
+    files = header.get("files") or {}
+    scene_file = files.get("scene") or {}
+    content = list(header.get("content", []))
+    unchanged = _same(scene_file.get("path"), scene_file.get("text")) and all(
+        _same(str(Path(d) / rel), text)
+        for d, texts in files.get("content", {}).items()
+        for rel, text in texts.items()
+    )
+    if unchanged or not scene_file:
+        source = scene_file.get("path") or header["scene"]
+    else:
+        content = []
+        for k, (_d, texts) in enumerate(files.get("content", {}).items()):
+            root = folder / f"content{k}"
+            root.mkdir(parents=True, exist_ok=True)
+            for rel, text in texts.items():
+                target = _inside(root, rel)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_text(text, encoding="utf-8")
+            content.append(str(root))
+        source = _inside(folder, Path(str(scene_file.get("path", "scene.yaml"))).name or "scene.yaml")
+        source.write_text(scene_file.get("text", ""), encoding="utf-8")
+    with loading_data():  # a replay is data: its scene may not run plug-in files unless --trust
+        return Scene.load(source, seed=int(header.get("seed", 0)), content=content)
+
+
+def _same(path: str | None, text: str | None) -> bool:
+    try:
+        return path is not None and Path(path).read_text(encoding="utf-8") == text
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def replay(path: str | Path, log=None) -> dict[str, Any]:
+    """Replay a recorded session headless; returns frames, commands, the state hashes and ``match``.
+
+    Each command is applied exactly as the server applied it (the same method function,
+    between the same two steps); an error that differs from the recorded one is counted
+    in ``diverged``.
+    """
+    header, commands, end = read_replay(path)
+    with tempfile.TemporaryDirectory(prefix="twig-replay-") as tmp:
+        scene = _load_scene(header, Path(tmp))
+    server = Server(scene, autonomous=bool(header.get("autonomous", True)), log=log or (lambda text: None))
+    session = HeadlessSession()
+    diverged = 0
+    try:
+        for item in commands:
+            frame = item["frame"]
+            if frame < scene.frame:
+                raise ReplayError(f"commands out of order: frame {frame} after frame {scene.frame}")
+            scene.step(frame - scene.frame)
+            method = find_method(item["method"], scene)
+            if method is None:
+                raise ReplayError(f"unknown method '{item['method']}' in the replay file")
+            if method.name in CLOCK_METHODS:
+                continue
+            error = None
+            try:
+                method.fn(server, session, **bind(method, item.get("params") or {}))
+            except RPCError as exc:
+                error = str(exc)
+            except KeyError as exc:
+                error = str(exc.args[0]) if exc.args else "unknown name"
+            except TwigError as exc:
+                error = str(exc)
+            server._flush()  # noqa: SLF001 - as Server._apply does after every command
+            if (error is None) != (item.get("error") is None):
+                diverged += 1
+        final = end["end"] if end else scene.frame
+        scene.step(max(0, final - scene.frame))
+        state_hash = scene.state_hash()
+        recorded = end.get("state_hash") if end else None
+        return {
+            "scene": scene.name,
+            "frames": scene.frame,
+            "commands": len(commands),
+            "diverged": diverged,
+            "state_hash": state_hash,
+            "recorded_state_hash": recorded,
+            "match": recorded == state_hash and diverged == 0,
+        }
+    finally:
+        scene.close()
