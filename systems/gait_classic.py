@@ -24,6 +24,7 @@ from numba import njit
 
 from twig_ecs.kernelmath import (
     CLASSIC,
+    HANG,
     L_FOOT,
     L_HAND,
     L_HIP,
@@ -32,7 +33,7 @@ from twig_ecs.kernelmath import (
     clamp,
     forward_xz,
 )
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import MOVE_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 
 STEP_TIME = 0.34  # s a step takes at a walk
 RUN_STEP_TIME = 0.24  # s at a run (3 m/s and faster)
@@ -193,7 +194,7 @@ def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, ra
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
         move_time[i] = t_step
-        move_gravity[i] = 1
+        move_gravity[i] = MOVE_ARC
         # ballistic: v0 = (target - p)/T - g T / 2 lands on target at T under gravity
         prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_step - 0.5 * gravity[0] * t_step) * dt
         prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_step - 0.5 * gravity[1] * t_step) * dt
@@ -204,7 +205,7 @@ def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, ra
         # arm swing: the opposite hand forwards, this side's hand back
         if moving:
             for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
-                if arm_mode[c, hand - L_HAND] == 0:
+                if arm_mode[c, hand - L_HAND] == HANG:
                     j = nd[hand]
                     prev[j, 0] -= sign * ARM_SWING * wx * dt
                     prev[j, 2] -= sign * ARM_SWING * wz * dt

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
 from twig_ecs.system import System
 
 
@@ -44,7 +44,7 @@ def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air,
                 f &= ~np.uint32(NODE_MOVING)
             d = 0.0
             ref = -1
-            if move_gravity[i] == 0:
+            if move_gravity[i] == MOVE_LINE:
                 g = 0.0
         # a speed limit: no part of a body moves faster than max_speed, so a rare
         # fight between constraints cannot fling a node across the scene

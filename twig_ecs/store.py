@@ -29,6 +29,11 @@ LINK_ROPE = 16  # only resists stretching: a maximum distance (a rope), slack wh
 LINK_BRACE = 32  # a stiffener that holds only while its body is passive (not controlled)
 LINK_OFF = 64  # switched off: the solver ignores it (a brace of a controlled character)
 
+# Kinds of ballistic move (NODE_FIELDS["move_gravity"]): how a node flies while move_time lasts.
+MOVE_LINE = 0  # a straight line at constant velocity (no gravity)
+MOVE_ARC = 1  # an arc under gravity (a kick, a classic step)
+MOVE_GAIT_ARC = 2  # an arc under the human gait's lighter gravity, re-aimed in flight (systems/gait.py)
+
 #: Array names of each block, with (dtype, trailing shape, fill value for new rows).
 NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "pos": (np.float64, (3,), 0.0),
@@ -38,7 +43,7 @@ NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "lock_pos": (np.float64, (3,), 0.0),
     "ctrl_acc": (np.float64, (3,), 0.0),  # acceleration held until changed (set_acceleration)
     "move_time": (np.float64, (), 0.0),  # s left in a ballistic move: flies undamped meanwhile
-    "move_gravity": (np.uint8, (), 1),  # 1: the move is an arc under gravity; 0: a straight line
+    "move_gravity": (np.uint8, (), 1),  # how a move flies: MOVE_LINE, MOVE_ARC or MOVE_GAIT_ARC
     "inv_mass": (np.float64, (), 0.0),
     "mass": (np.float64, (), 0.0),
     "radius": (np.float64, (), 0.0),  # contact radius against the ground and as a sphere
@@ -117,20 +122,20 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "scale": (np.float64, (), 1.0),  # body height / 1.75 m
     "stand_height": (np.float64, (), 0.0),  # pelvis height when standing (m)
     "leg_length": (np.float64, (), 0.0),  # hip to foot, straight (m)
-    "mode": (np.int32, (), 0),  # posture: 0 stand, 1 sit, 2 rise (sitting up), 3 limp
+    "mode": (np.int32, (), 0),  # posture: kernelmath.STAND, SIT, RISE (sitting up) or LIMP
     "mode_time": (np.float64, (), 0.0),  # s spent in the current mode
     "walk": (np.float64, (3,), 0.0),  # desired ground velocity of the pelvis (m/s)
     "crouch": (np.float64, (), 0.0),  # m the pelvis is lowered from standing height (stooping)
     "lean": (np.float64, (3,), 0.0),  # m the shoulder centre leads the pelvis (stooping)
     "seat": (np.float64, (3,), 0.0),  # where the pelvis goes when sitting
-    "gaze_mode": (np.int32, (), 0),  # 0: direction of motion, 1: a point, 2: a node
+    "gaze_mode": (np.int32, (), 0),  # kernelmath.GAZE_AHEAD, GAZE_POINT or GAZE_NODE
     "gaze_point": (np.float64, (3,), 0.0),
     "gaze_node": (np.int32, (), -1),
     "head_dir": (np.float64, (3,), 0.0),  # unit vector the face points along
-    "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): see systems/arms.py
+    "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): kernelmath.HANG, REACH... (systems/arms.py)
     "arm_point": (np.float64, (2, 3), 0.0),
     "arm_node": (np.int32, (2,), -1),
-    "gait": (np.int32, (), 0),  # 0 classic stepping, 1 the human walk (kernelmath.GAITS)
+    "gait": (np.int32, (), 0),  # kernelmath.CLASSIC stepping or HUMAN walk (kernelmath.GAITS)
     "swing": (np.float64, (2,), 0.0),  # s left in each foot's step (0: planted)
     "last_step": (np.int32, (), 1),  # foot that stepped last (0 left, 1 right)
     "steps": (np.int64, (), 0),
