@@ -15,7 +15,7 @@ from twig_ecs.components.attention import (
     Watchful,
 )
 from twig_ecs.components.character import Character
-from twig_ecs.components.physics import Body, GrabJoint, Link, Name, Node, PainSensor
+from twig_ecs.components.physics import Body, GrabJoint, Name, PainSensor
 
-__all__ = ["Attachment", "Body", "Character", "Feisty", "GrabJoint", "Link", "Memory", "Name", "Node",
-           "PainSensor", "Perception", "Playful", "Rider", "Wander", "Watchful"]  # fmt: skip
+__all__ = ["Attachment", "Body", "Character", "Feisty", "GrabJoint", "Memory", "Name", "PainSensor",
+           "Perception", "Playful", "Rider", "Wander", "Watchful"]  # fmt: skip

@@ -19,7 +19,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
-from twig_ecs.components import Body, Character, GrabJoint, Link, Memory, Name, Node
+from twig_ecs.components import Body, Character, GrabJoint, Memory, Name
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.esperworld import make_deterministic
 from twig_ecs.events import Event, Grabbed, Released
@@ -215,12 +215,6 @@ class Scene:
         body = esper.component_for_entity(entity, Body)
         doomed = {entity}
         remap = self.state.remove_body(body.index)
-        for e, node in list(esper.get_component(Node)):
-            if node.body == entity:
-                doomed.add(e)
-        for e, link in list(esper.get_component(Link)):
-            if link.body == entity:
-                doomed.add(e)
         for e, grab in list(esper.get_component(GrabJoint)):
             if entity in (grab.holder, grab.held):
                 doomed.add(e)
@@ -234,10 +228,6 @@ class Scene:
     def _apply_remap(self, remap: dict[str, np.ndarray]) -> None:
         """Follow a store compaction: rewrite every row index held by components."""
         nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
-        for _, node in esper.get_component(Node):
-            node.index = int(nodes[node.index])
-        for _, link in esper.get_component(Link):
-            link.index = int(links[link.index])
         for _, grab in esper.get_component(GrabJoint):
             grab.index = int(links[grab.index])
         for _, body in esper.get_component(Body):
@@ -296,8 +286,6 @@ class Scene:
         esper.delete_entity(grab, immediate=True)
         for _, character in esper.get_component(Character):
             character.holding = {h: g for h, g in character.holding.items() if g != grab}
-        for _, link in esper.get_component(Link):
-            link.index = int(remap[link.index])
         for _, other in esper.get_component(GrabJoint):
             other.index = int(remap[other.index])
         for _, body in esper.get_component(Body):
@@ -459,15 +447,11 @@ class Scene:
         return list(self._names)
 
     def name_of(self, entity: int) -> str | None:
-        """The name of an entity (a body, or the body owning a node or link)."""
+        """The name of an entity (a body; None for a grab joint or an unknown entity)."""
         name = self._name_by_entity.get(entity)
         if name is not None:  # a named body: the common case, without esper look-ups
             return name
         self.activate()
-        for comp in (Node, Link):
-            part = esper.try_component(entity, comp)
-            if part is not None:
-                entity = part.body
         name = esper.try_component(entity, Name)
         return name.value if name else None
 

@@ -1,7 +1,8 @@
 """The structure-of-arrays physics store: every hot number of every node and link.
 
 Nodes, links, joint limits, colliders and bodies each live in a block of numpy arrays
-with one row per item. Components hold row indices into these arrays; the numba
+with one row per item (nodes and links are rows, not entities: a ``Body`` component holds
+its contiguous rows). Components hold row indices into these arrays; the numba
 kernels in ``twig_ecs.systems`` loop over them directly. Capacity grows by doubling;
 removing a body compacts the rows and returns an index remap so components can follow.
 """
@@ -57,7 +58,6 @@ NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "axle_height": (np.float64, (), 0.0),  # coordinate along the axle, kept constant
     "flags": (np.uint32, (), 0),
     "body": (np.int32, (), -1),
-    "entity": (np.int64, (), -1),  # esper entity of this node
     "color": (np.float32, (4,), 1.0),
 }
 
@@ -70,7 +70,7 @@ LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "flags": (np.uint32, (), 0),
     "group": (np.int32, (), 0),  # self-collision group (0: collides with any link of its body)
     "body": (np.int32, (), -1),
-    "entity": (np.int64, (), -1),  # esper entity of this link (or grab joint)
+    "entity": (np.int64, (), -1),  # esper entity of the grab joint on this row (-1: a body's own link)
     "color": (np.float32, (4,), 1.0),
 }
 
