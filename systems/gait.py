@@ -40,9 +40,16 @@ from twig_ecs.kernelmath import (
     step_length,
     walk_speed,
 )
-from twig_ecs.store import MOVE_GAIT_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import (
+    MOVE_GAIT_ARC,
+    NODE_IN_CONTACT,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_MOVING,
+    columns,
+)
 from twig_ecs.system import System
-from twig_ecs.systems.gait_classic import control_gait_classic
+from twig_ecs.systems.gait_classic import GaitColumns, control_gait_classic
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
 SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down the rest (~20%)
@@ -222,9 +229,16 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
 
 
 @njit(cache=True)
-def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
-                 last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
-    """Guide, plant, unlock and launch feet for every standing character with the human walk."""
+def control_gait(cols, n_chars, gravity, dt):
+    """Guide, plant, unlock and launch feet for every standing character with the human walk
+    (``cols``: :class:`~twig_ecs.systems.gait_classic.GaitColumns`)."""
+    pos, prev, acc = cols.pos, cols.prev, cols.acc
+    lock_pos, flags, radius = cols.lock_pos, cols.flags, cols.radius
+    move_time, move_gravity = cols.move_time, cols.move_gravity
+    nodes, mode, walk = cols.nodes, cols.mode, cols.walk
+    swing, last_step = cols.swing, cols.last_step
+    steps, arm_mode, scale = cols.steps, cols.arm_mode, cols.scale
+    leg_length, gait = cols.leg_length, cols.gait
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
         if gait[c] != HUMAN:
@@ -404,12 +418,9 @@ class GaitSystem(System):
         if ch.count == 0:
             return
         g = self.scene.settings.gravity
-        control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
-                     ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale,
-                     ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
-        control_gait_classic(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
-                             ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode,
-                             ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
+        cols = columns(GaitColumns, n, ch)
+        control_gait(cols, ch.count, g, dt)
+        control_gait_classic(cols, ch.count, g, dt)
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

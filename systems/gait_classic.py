@@ -18,6 +18,7 @@ through the links and their joint limits.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -52,11 +53,41 @@ STRAY = 0.1  # of the leg's length: a foot this far up after its step is over is
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
+class GaitColumns(NamedTuple):
+    """The node and character-table columns the two gait kernels read and write (named as
+    in ``store.NODE_FIELDS`` and ``store.CHARACTER_FIELDS``)."""
+
+    pos: np.ndarray
+    prev: np.ndarray
+    acc: np.ndarray
+    lock_pos: np.ndarray
+    flags: np.ndarray
+    move_time: np.ndarray
+    move_gravity: np.ndarray
+    radius: np.ndarray
+    nodes: np.ndarray  # characters' node rows by role
+    mode: np.ndarray
+    walk: np.ndarray
+    swing: np.ndarray
+    last_step: np.ndarray
+    steps: np.ndarray
+    arm_mode: np.ndarray
+    scale: np.ndarray
+    leg_length: np.ndarray
+    gait: np.ndarray
+
+
 # fmt: off
 @njit(cache=True)
-def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk,
-                         swing, last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
-    """Plant, unlock and launch feet for every standing character with the classic gait."""
+def control_gait_classic(cols, n_chars, gravity, dt):
+    """Plant, unlock and launch feet for every standing character with the classic gait
+    (``cols``: :class:`GaitColumns`)."""
+    pos, prev, lock_pos, flags, radius = cols.pos, cols.prev, cols.lock_pos, cols.flags, cols.radius
+    move_time, move_gravity = cols.move_time, cols.move_gravity
+    nodes, mode, walk = cols.nodes, cols.mode, cols.walk
+    swing, last_step = cols.swing, cols.last_step
+    steps, arm_mode, scale = cols.steps, cols.arm_mode, cols.scale
+    leg_length, gait = cols.leg_length, cols.gait
     for c in range(n_chars):
         if gait[c] != CLASSIC:
             continue

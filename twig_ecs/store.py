@@ -235,6 +235,30 @@ class Block:
         self.edges[row] = (-math.sin(arc_min), math.cos(arc_min), math.sin(arc_max), -math.cos(arc_max))
 
 
+#: How :func:`columns` fills each kind of view from each set of blocks: the block of every field.
+_PLANS: dict[tuple, tuple[int, ...]] = {}
+
+
+def columns(view: type, *blocks: Block):
+    """The kernel argument ``view`` (a NamedTuple class whose fields are store column names)
+    holding those columns of ``blocks`` (the arrays themselves), each from the first block
+    that has it.
+
+    A kernel takes one such named structure instead of a score of positional arrays, and
+    since the columns are looked up by the view's field names, a call site cannot hand a
+    kernel the wrong column in the right place.
+    """
+    key = (view, *(id(b.fields) for b in blocks))
+    plan = _PLANS.get(key)
+    if plan is None:
+        missing = [f for f in view._fields if not any(f in b.fields for b in blocks)]
+        if missing:
+            raise KeyError(f"{view.__name__}: no store column named {', '.join(missing)}")
+        plan = tuple(next(k for k, b in enumerate(blocks) if f in b.fields) for f in view._fields)
+        _PLANS[key] = plan
+    return view._make([blocks[k].arrays[f] for k, f in zip(plan, view._fields, strict=True)])
+
+
 def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
     """Add ``body`` to a collider's (two) ignored bodies; a third replaces the second."""
     slots = ignore[collider]
