@@ -19,11 +19,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 from twig_ecs.systems.constrain import (
     NodeColumns,
     constraints_of,
+    named_constraints,
     nudge,
     project_limits,
     project_links,
@@ -55,10 +56,9 @@ class ContactColumns(NamedTuple):
     count: int
 
 
-def contacts_of(state) -> ContactColumns:
-    """The store's collider columns, named, for :func:`solve_collisions`."""
-    col = state.colliders
-    return ContactColumns(col.a, col.b, col.radius, col.hit_energy, col.hit_by, col.count)
+def contacts_of(state) -> tuple:
+    """The store's collider columns for :func:`solve_collisions` (``store.columns``)."""
+    return columns(ContactColumns, state.colliders)
 
 
 @njit(cache=True, inline="always")
@@ -418,10 +418,12 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
 
 
 @njit(cache=True)
-def solve_collisions(cols, pairs, n_pairs, iterations, dt, c):
-    """Relaxation rounds of contacts (``cols``: :class:`ContactColumns`) then all other
-    constraints (``c``: :class:`~twig_ecs.systems.constrain.Constraints`); returns the
-    residual penetration."""
+def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints):
+    """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
+    constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`);
+    returns the residual penetration."""
+    cols = ContactColumns(*contacts)
+    c = named_constraints(constraints)
     nodes = c.nodes
     pos, flags = nodes.pos, nodes.flags
     col_a, col_b, col_r = cols.a, cols.b, cols.radius

@@ -22,6 +22,7 @@ from twig_ecs.store import (
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
     NODE_MOVING,
+    columns,
 )
 from twig_ecs.system import System
 
@@ -74,12 +75,12 @@ class LimitColumns(NamedTuple):
 
 
 class AxleColumns(NamedTuple):
-    """Per node: the fixed axle (node rows ``a``-``b``, or -1) it spins about, and where on it."""
+    """Per node: the fixed axle (node rows ``axle_a``-``axle_b``, or -1) it spins about, and where on it."""
 
-    a: np.ndarray
-    b: np.ndarray
-    radius: np.ndarray  # m from the axle line
-    height: np.ndarray  # m along the axle from ``a``
+    axle_a: np.ndarray
+    axle_b: np.ndarray
+    axle_radius: np.ndarray  # m from the axle line
+    axle_height: np.ndarray  # m along the axle from ``axle_a``
 
 
 class Constraints(NamedTuple):
@@ -91,26 +92,14 @@ class Constraints(NamedTuple):
     axles: AxleColumns
 
 
-def constraints_of(state) -> Constraints:
-    """The store's constraint columns, named, for :func:`solve_constraints` and the collide kernel."""
-    n, lk, lim = state.nodes, state.links, state.limits
-    return Constraints(
-        NodeColumns(n.pos, n.prev, n.inv_mass, n.flags, n.radius, n.lock_pos, n.count),
-        LinkColumns(lk.a, lk.b, lk.rest, lk.flags, lk.count),
-        LimitColumns(
-            lim.root,
-            lim.mid,
-            lim.tip,
-            lim.frame,
-            lim.side,
-            lim.ref,
-            lim.arc_min,
-            lim.arc_max,
-            lim.edges,
-            lim.count,
-        ),
-        AxleColumns(n.axle_a, n.axle_b, n.axle_radius, n.axle_height),
-    )
+def constraints_of(state) -> tuple:
+    """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
+    plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
+    :class:`LimitColumns` and :class:`AxleColumns` (see :func:`~twig_ecs.store.columns`);
+    :func:`named_constraints` names them again."""
+    n, lim = state.nodes, state.limits
+    return (columns(NodeColumns, n), columns(LinkColumns, state.links), columns(LimitColumns, lim),
+            columns(AxleColumns, n))  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -376,7 +365,8 @@ def project_limits(nodes, limits):
 def project_axles(nodes, axles):
     """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
     pos, flags = nodes.pos, nodes.flags
-    axle_a, axle_b, axle_radius, axle_height = axles.a, axles.b, axles.radius, axles.height
+    axle_a, axle_b = axles.axle_a, axles.axle_b
+    axle_radius, axle_height = axles.axle_radius, axles.axle_height
     for i in range(nodes.count):
         a = axle_a[i]
         if a < 0 or flags[i] & NODE_LOCKED:
@@ -424,8 +414,18 @@ def relax_once(c):
 
 
 @njit(cache=True)
-def solve_constraints(iterations, c):
-    """Gauss-Seidel relaxation of every constraint in ``c`` (:class:`Constraints`), ``iterations`` times."""
+def named_constraints(args) -> Constraints:
+    """The :class:`Constraints` of :func:`constraints_of`'s plain tuples."""
+    return Constraints(
+        NodeColumns(*args[0]), LinkColumns(*args[1]), LimitColumns(*args[2]), AxleColumns(*args[3])
+    )
+
+
+@njit(cache=True)
+def solve_constraints(iterations, args):
+    """Gauss-Seidel relaxation of every constraint (``args``: :func:`constraints_of`), ``iterations``
+    times."""
+    c = named_constraints(args)
     for _ in range(iterations):
         relax_once(c)
 

@@ -229,9 +229,11 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
 
 
 @njit(cache=True)
-def control_gait(cols, n_chars, gravity, dt):
+def control_gait(args, n_chars, gravity, dt):
     """Guide, plant, unlock and launch feet for every standing character with the human walk
-    (``cols``: :class:`~twig_ecs.systems.gait_classic.GaitColumns`)."""
+    (``args``: ``store.columns(GaitColumns, nodes, characters)``, see
+    :class:`~twig_ecs.systems.gait_classic.GaitColumns`)."""
+    cols = GaitColumns(*args)
     pos, prev, acc = cols.pos, cols.prev, cols.acc
     lock_pos, flags, radius = cols.lock_pos, cols.flags, cols.radius
     move_time, move_gravity = cols.move_time, cols.move_gravity
@@ -418,9 +420,9 @@ class GaitSystem(System):
         if ch.count == 0:
             return
         g = self.scene.settings.gravity
-        cols = columns(GaitColumns, n, ch)
-        control_gait(cols, ch.count, g, dt)
-        control_gait_classic(cols, ch.count, g, dt)
+        args = columns(GaitColumns, n, ch)
+        control_gait(args, ch.count, g, dt)
+        control_gait_classic(args, ch.count, g, dt)
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

@@ -79,9 +79,10 @@ class GaitColumns(NamedTuple):
 
 # fmt: off
 @njit(cache=True)
-def control_gait_classic(cols, n_chars, gravity, dt):
+def control_gait_classic(args, n_chars, gravity, dt):
     """Plant, unlock and launch feet for every standing character with the classic gait
-    (``cols``: :class:`GaitColumns`)."""
+    (``args``: ``store.columns(GaitColumns, nodes, characters)``)."""
+    cols = GaitColumns(*args)
     pos, prev, lock_pos, flags, radius = cols.pos, cols.prev, cols.lock_pos, cols.flags, cols.radius
     move_time, move_gravity = cols.move_time, cols.move_gravity
     nodes, mode, walk = cols.nodes, cols.mode, cols.walk

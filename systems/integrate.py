@@ -38,8 +38,9 @@ class IntegrateColumns(NamedTuple):
 
 # fmt: off
 @njit(cache=True)
-def integrate_nodes(cols, count, gravity, dt, max_speed):
-    """One Verlet step for every node, in place (``cols``: :class:`IntegrateColumns`)."""
+def integrate_nodes(args, count, gravity, dt, max_speed):
+    """One Verlet step for every node, in place (``args``: ``store.columns(IntegrateColumns, nodes)``)."""
+    cols = IntegrateColumns(*args)
     pos, prev, vel = cols.pos, cols.prev, cols.vel
     acc, ctrl_acc, lock_pos = cols.acc, cols.ctrl_acc, cols.lock_pos
     inv_mass, damp_air, damp_ground = cols.inv_mass, cols.damp_air, cols.damp_ground

@@ -101,9 +101,10 @@ class PostureColumns(NamedTuple):
 
 # fmt: off
 @njit(cache=True)
-def control_posture(cols, n_chars, gravity, dt):
-    """Add posture accelerations for every character (see the module docstring; ``cols``:
-    :class:`PostureColumns`)."""
+def control_posture(args, n_chars, gravity, dt):
+    """Add posture accelerations for every character (see the module docstring; ``args``:
+    ``store.columns(PostureColumns, nodes, characters)``)."""
+    cols = PostureColumns(*args)
     pos, prev, acc, mass, radius, flags = cols.pos, cols.prev, cols.acc, cols.mass, cols.radius, cols.flags
     move_time, nodes, mode, mode_time, walk = cols.move_time, cols.nodes, cols.mode, cols.mode_time, cols.walk
     seat, head_dir = cols.seat, cols.head_dir
