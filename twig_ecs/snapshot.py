@@ -50,7 +50,7 @@ from twig_ecs.trust import UntrustedCode, check_snapshot_plugin
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: nodes and links are no longer entities (issue 18)
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
