@@ -14,8 +14,18 @@ from twig_ecs.components.attention import (
     Wander,
     Watchful,
 )
+from twig_ecs.components.behavior_state import (
+    Glance,
+    HandAims,
+    Kicking,
+    LastFight,
+    Spin,
+    ToyHome,
+    Withdrawing,
+)
 from twig_ecs.components.character import Character
-from twig_ecs.components.physics import Body, GrabJoint, Link, Name, Node, PainSensor
+from twig_ecs.components.physics import Body, GrabJoint, Name, PainSensor
 
-__all__ = ["Attachment", "Body", "Character", "Feisty", "GrabJoint", "Link", "Memory", "Name", "Node",
-           "PainSensor", "Perception", "Playful", "Rider", "Wander", "Watchful"]  # fmt: skip
+__all__ = ["Attachment", "Body", "Character", "Feisty", "Glance", "GrabJoint", "HandAims", "Kicking",
+           "LastFight", "Memory", "Name", "PainSensor", "Perception", "Playful", "Rider", "Spin", "ToyHome",
+           "Wander", "Watchful", "Withdrawing"]  # fmt: skip

@@ -1,4 +1,10 @@
-"""Physical components: nodes, links, grab joints, bodies and tactile pain sensors."""
+"""Physical components: names, bodies and grab joints; and a body's pain-sensor parameters.
+
+Nodes and links are not entities: they are rows of the store (``PhysicsState.nodes`` and
+``links``), owned by a :class:`Body` (its contiguous rows) and addressed as (body, node
+name) - no system queries them one by one, so an entity per node (14,700 of the 15,000
+entities of a 300-crowd) only cost spawn time and memory.
+"""
 
 from __future__ import annotations
 
@@ -10,24 +16,6 @@ class Name:
     """A unique, human-readable name for an entity (``scene.entity(name)`` finds it)."""
 
     value: str
-
-
-@dataclass(slots=True)
-class Node:
-    """A point mass: its row in ``PhysicsState.nodes`` and the body it belongs to."""
-
-    index: int
-    body: int  # entity of the owning Body
-    name: str
-
-
-@dataclass(slots=True)
-class Link:
-    """A rigid distance constraint (and capsule, when visible): its row in ``links``."""
-
-    index: int
-    body: int  # entity of the owning Body
-    name: str  # "a-b" from its node names
 
 
 @dataclass(slots=True)
@@ -56,6 +44,11 @@ class Body:
     height: float
     params: dict = field(default_factory=dict)
 
+    def link_name(self, row: int, links) -> str:
+        """The name ("a-b", from its node names) of this body's link at store row ``row``."""
+        a, b = int(links.a[row]) - self.node_start, int(links.b[row]) - self.node_start
+        return f"{self.node_names[a]}-{self.node_names[b]}"
+
     def node_index(self, name: str) -> int:
         """Row in ``PhysicsState.nodes`` of the named node (KeyError if unknown)."""
         try:
@@ -70,8 +63,11 @@ class Body:
 class PainSensor:
     """Tactile pain (SPEC 2): impacts above ``threshold`` joules hurt; pain decays.
 
-    The live pain level is ``PhysicsState.bodies.pain[body.index]``; these are the
-    authoring parameters, copied into the store when the body spawns.
+    The parameters a template or scene gives a body (``pain:``). They are not a
+    component: spawning writes them into the store's body columns (``pain_threshold``,
+    ``pain_half_life``, ``pain_gain``), which the sense kernel reads and which are the
+    truth from then on; ``BodyHandle.pain_sensor`` reads them back. The live pain level
+    is ``PhysicsState.bodies.pain[body.index]``.
     """
 
     threshold: float = 2.0  # J of impact energy before it hurts

@@ -16,7 +16,7 @@ import esper
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import CharacterHandle
-from twig_ecs.components import Attachment, Character
+from twig_ecs.components import Attachment, Character, Glance
 from twig_ecs.steering import ground_distance
 
 GLANCE = 1.0  # s a look back lasts
@@ -45,11 +45,6 @@ class AttachmentBehavior(Behavior):
 
     name = "attachment"
     component = Attachment
-
-    def setup(self) -> None:
-        """Per child: when the current glance ends, when the last one began."""
-        self.glance_until: dict[int, float] = {}
-        self.last_glance: dict[int, float] = {}
 
     def process(self, dt: float) -> None:
         """Update every attached child's anxiety, then propose."""
@@ -88,13 +83,11 @@ class AttachmentBehavior(Behavior):
         if attachment.anxiety >= attachment.return_at:
             return RUN_HOME
         now = self.scene.time
-        if self.glance_until.get(character.entity, -1.0) > now:
+        glance = esper.try_component(character.entity, Glance) or Glance()
+        if glance.until > now:
             return LOOK_BACK
-        if (
-            attachment.anxiety >= attachment.look_back_at
-            and now - self.last_glance.get(character.entity, -1e9) > GLANCE_EVERY
-        ):
-            return LOOK_BACK  # fmt: skip
+        if attachment.anxiety >= attachment.look_back_at and now - glance.last > GLANCE_EVERY:
+            return LOOK_BACK
         return 0.0
 
     def start(self, character, goal: Goal | None) -> None:
@@ -102,8 +95,7 @@ class AttachmentBehavior(Behavior):
         attachment = self.settings(character)
         if attachment.anxiety < attachment.return_at:
             now = self.scene.time
-            self.glance_until[character.entity] = now + GLANCE
-            self.last_glance[character.entity] = now
+            esper.add_component(character.entity, Glance(until=now + GLANCE, last=now))
             attachment.look_backs += 1
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
@@ -111,11 +103,17 @@ class AttachmentBehavior(Behavior):
         attachment = self.settings(character)
         if attachment.anxiety >= attachment.return_at:
             character.hug(attachment.caregiver, duration=1.5, on_end=Soothe(attachment))
-            self.glance_until.pop(character.entity, None)
+            self._end_glance(character)
             return
         character.stop()
         character.look_at(attachment.caregiver, node="head")
 
     def stop(self, character, goal) -> None:
         """The glance is over."""
-        self.glance_until.pop(character.entity, None)
+        self._end_glance(character)
+
+    @staticmethod
+    def _end_glance(character) -> None:
+        glance = esper.try_component(character.entity, Glance)
+        if glance is not None:
+            glance.until = -1.0

@@ -18,7 +18,7 @@ import esper
 import numpy as np
 
 from twig_ecs.components import Attachment, Body, Character, Memory, Perception
-from twig_ecs.kernelmath import HEAD
+from twig_ecs.kernelmath import GAZE_NODE, HEAD
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.system import System
 
@@ -136,6 +136,6 @@ class AttentionSystem(System):
                 head_node = self._heads().get(memory.focus)
                 if head_node is not None:  # a character: its head, as look_at(name, node="head")
                     ch.gaze_node[row] = head_node
-                    ch.gaze_mode[row] = 2
+                    ch.gaze_mode[row] = GAZE_NODE
                 else:
                     me.look_at(memory.focus)

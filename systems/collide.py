@@ -14,13 +14,22 @@ Writes node ``pos`` and IN_CONTACT flags, and the tactile record of each collide
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
-from twig_ecs.systems.constrain import constraint_args, nudge, project_limits, project_links, relax_once
+from twig_ecs.systems.constrain import (
+    NodeColumns,
+    constraints_of,
+    named_constraints,
+    nudge,
+    project_limits,
+    project_links,
+    relax_once,
+)
 
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.
@@ -34,6 +43,22 @@ MIN_LEVER = 0.0025
 #: Broad-phase grid cell edge (m), for the boxes of whole bodies: about a body's width
 #: and a half, so a standing body sits in a few cells and a lying one in a row of them.
 CELL_SIZE = 1.0
+
+
+class ContactColumns(NamedTuple):
+    """The collider columns the contact passes read, and the tactile record they write."""
+
+    a: np.ndarray  # node rows of each capsule's ends (a == b: a sphere)
+    b: np.ndarray
+    radius: np.ndarray  # m
+    hit_energy: np.ndarray  # J: the largest impact this step (written)
+    hit_by: np.ndarray  # the collider that delivered it (written)
+    count: int
+
+
+def contacts_of(state) -> tuple:
+    """The store's collider columns for :func:`solve_collisions` (``store.columns``)."""
+    return columns(ContactColumns, state.colliders)
 
 
 @njit(cache=True, inline="always")
@@ -252,9 +277,7 @@ def _felt_weight(inv_mass, flags, i):
 
 
 @njit(cache=True)
-def resolve_contacts(
-    pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, record, dt
-):
+def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
 
     Each capsule's end nodes move in proportion to their share of the contact point
@@ -264,6 +287,8 @@ def resolve_contacts(
     (the one that contributed less of the closing speed). Returns the
     largest penetration (m) met in this pass.
     """
+    pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
+    col_a, col_b, col_r, hit_energy, hit_by = cols.a, cols.b, cols.radius, cols.hit_energy, cols.hit_by
     worst = 0.0
     for k in range(n_pairs):
         i = pairs[k, 0]
@@ -393,27 +418,29 @@ def resolve_contacts(
 
 
 @njit(cache=True)
-def solve_collisions(col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, n_col, iterations, dt, *cargs):
-    """Relaxation rounds of contacts then all other constraints (``cargs``: see
-    :func:`~twig_ecs.systems.constrain.constraint_args`); returns the residual penetration."""
-    pos, prev, inv_mass, flags = cargs[0], cargs[1], cargs[2], cargs[4]
-    for c in range(n_col):
-        hit_energy[c] = 0.0
-        hit_by[c] = -1
+def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints):
+    """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
+    constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`);
+    returns the residual penetration."""
+    cols = ContactColumns(*contacts)
+    c = named_constraints(constraints)
+    nodes = c.nodes
+    pos, flags = nodes.pos, nodes.flags
+    col_a, col_b, col_r = cols.a, cols.b, cols.radius
+    for k in range(cols.count):
+        cols.hit_energy[k] = 0.0
+        cols.hit_by[k] = -1
     for it in range(iterations):
-        resolve_contacts(
-            pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by, it == 0, dt
-        )
-        relax_once(*cargs)
+        resolve_contacts(nodes, cols, pairs, n_pairs, it == 0, dt)
+        relax_once(c)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact;
         # a contact pass before each, so that what they undo of a contact is redone
         # (bool(False), not False: numba would compile resolve_contacts again for a literal)
-        resolve_contacts(pos, prev, inv_mass, flags, col_a, col_b, col_r, pairs, n_pairs, hit_energy, hit_by,
-                         bool(False), dt)  # noqa: UP018  # fmt: skip
-        project_limits(pos, prev, inv_mass, flags, *cargs[13:23])
-        project_links(pos, inv_mass, flags, *cargs[8:13])
-    project_limits(pos, prev, inv_mass, flags, *cargs[13:23])  # limits have the last word
+        resolve_contacts(nodes, cols, pairs, n_pairs, bool(False), dt)  # noqa: UP018
+        project_limits(nodes, c.limits)
+        project_links(nodes, c.links)
+    project_limits(nodes, c.limits)  # limits have the last word
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):
@@ -498,17 +525,6 @@ class CollideSystem(System):
             s.stats[0] = 0.0
             return
         n_pairs = self.broad_phase()
-        s.stats[0] = solve_collisions(
-            col.a,
-            col.b,
-            col.radius,
-            s.pairs,
-            n_pairs,
-            col.hit_energy,
-            col.hit_by,
-            col.count,
-            self.scene.settings.iterations,
-            dt,
-            *constraint_args(s),
-        )
+        s.stats[0] = solve_collisions(contacts_of(s), s.pairs, n_pairs, self.scene.settings.iterations, dt,
+                                      constraints_of(s))  # fmt: skip
         s.n_pairs = n_pairs

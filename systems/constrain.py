@@ -9,6 +9,7 @@ that equal and opposite corrections keep the total momentum.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -21,6 +22,7 @@ from twig_ecs.store import (
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
     NODE_MOVING,
+    columns,
 )
 from twig_ecs.system import System
 
@@ -28,6 +30,76 @@ from twig_ecs.system import System
 GRAB_CLOSING = 0.6
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
+
+
+# -- what the kernels take: named views of the store's columns (the arrays themselves, not
+# copies; numba takes a NamedTuple of arrays as one argument, so a kernel and its call site
+# name the columns they use instead of passing 20-odd arrays in an order both must keep)
+
+
+class NodeColumns(NamedTuple):
+    """The node columns the constraint passes read and write."""
+
+    pos: np.ndarray  # (n, 3) m
+    prev: np.ndarray  # (n, 3) m, position one step ago
+    inv_mass: np.ndarray
+    flags: np.ndarray  # NODE_* bits
+    radius: np.ndarray  # contact radius against the ground (m)
+    lock_pos: np.ndarray  # (n, 3) where a locked node is held
+    count: int  # live rows
+
+
+class LinkColumns(NamedTuple):
+    """Rigid links and grab joints: node rows ``a``-``b`` held ``rest`` apart."""
+
+    a: np.ndarray
+    b: np.ndarray
+    rest: np.ndarray  # m
+    flags: np.ndarray  # LINK_* bits
+    count: int
+
+
+class LimitColumns(NamedTuple):
+    """Hinge limits (knees, elbows); see ``store.LIMIT_FIELDS``."""
+
+    root: np.ndarray
+    mid: np.ndarray
+    tip: np.ndarray
+    frame: np.ndarray  # (n, 4) node rows: left, right, low, up
+    side: np.ndarray
+    ref: np.ndarray  # (n, 2)
+    arc_min: np.ndarray  # rad
+    arc_max: np.ndarray  # rad
+    edges: np.ndarray  # (n, 4) inward normals of the arc's edges
+    count: int
+
+
+class AxleColumns(NamedTuple):
+    """Per node: the fixed axle (node rows ``axle_a``-``axle_b``, or -1) it spins about, and where on it."""
+
+    axle_a: np.ndarray
+    axle_b: np.ndarray
+    axle_radius: np.ndarray  # m from the axle line
+    axle_height: np.ndarray  # m along the axle from ``axle_a``
+
+
+class Constraints(NamedTuple):
+    """Everything one relaxation pass projects (:func:`relax_once`)."""
+
+    nodes: NodeColumns
+    links: LinkColumns
+    limits: LimitColumns
+    axles: AxleColumns
+
+
+def constraints_of(state) -> tuple:
+    """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
+    plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
+    :class:`LimitColumns` and :class:`AxleColumns` (see :func:`~twig_ecs.store.columns`);
+    :func:`named_constraints` names them again."""
+    n, lim = state.nodes, state.limits
+    return (columns(NodeColumns, n), columns(LinkColumns, state.links), columns(LimitColumns, lim),
+            columns(AxleColumns, n))  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -70,12 +142,14 @@ def nudge(pos, i, f, dx, dy, dz):
 
 
 @njit(cache=True)
-def project_links(pos, inv_mass, flags, la, lb, rest, lflags, count):
+def project_links(nodes, links):
     """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o.
 
     Ropes are only pulled back when longer than their length.
     """
-    for k in range(count):
+    pos, inv_mass, flags = nodes.pos, nodes.inv_mass, nodes.flags
+    la, lb, rest, lflags = links.a, links.b, links.rest, links.flags
+    for k in range(links.count):
         if lflags[k] & LINK_OFF:
             continue  # (first: a switched-off brace costs no square root)
         i = la[k]
@@ -134,14 +208,16 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
 
 
 @njit(cache=True)
-def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, edges,
-                   n_limits):  # fmt: skip
+def project_limits(nodes, limits):
     """One pass over hinge limits (knees, elbows).
 
     The mid node's bend (its offset from the root-tip line) must point within the arc
     [arc_min, arc_max] (at most 180 degrees wide) around the reference direction.
     """
-    for k in range(n_limits):
+    pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
+    root, mid, tip, frame = limits.root, limits.mid, limits.tip, limits.frame
+    side, ref, arc_min, arc_max, edges = limits.side, limits.ref, limits.arc_min, limits.arc_max, limits.edges
+    for k in range(limits.count):
         r = root[k]
         m = mid[k]
         t = tip[k]
@@ -286,9 +362,12 @@ def project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref,
 
 
 @njit(cache=True)
-def project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, count):
+def project_axles(nodes, axles):
     """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
-    for i in range(count):
+    pos, flags = nodes.pos, nodes.flags
+    axle_a, axle_b = axles.axle_a, axles.axle_b
+    axle_radius, axle_height = axles.axle_radius, axles.axle_height
+    for i in range(nodes.count):
         a = axle_a[i]
         if a < 0 or flags[i] & NODE_LOCKED:
             continue
@@ -304,9 +383,10 @@ def project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, count):
 
 
 @njit(cache=True)
-def project_ground(pos, radius, flags, lock_pos, count):
+def project_ground(nodes):
     """Ground plane y = 0: no node sinks below its radius; mark contacts, lock on contact."""
-    for i in range(count):
+    pos, radius, flags, lock_pos = nodes.pos, nodes.radius, nodes.flags, nodes.lock_pos
+    for i in range(nodes.count):
         f = flags[i]
         if f & NODE_LOCKED:
             continue
@@ -322,37 +402,32 @@ def project_ground(pos, radius, flags, lock_pos, count):
             flags[i] = f
 
 
-# fmt: off
 @njit(cache=True)
-def relax_once(pos, prev, inv_mass, mass, flags, radius, lock_pos, n_nodes,
-               la, lb, rest, lflags, n_links,
-               root, mid, tip, frame, side, ref, arc_min, arc_max, edges, n_limits,
-               axle_a, axle_b, axle_radius, axle_height):
-    """One relaxation pass: limits, axles, the ground, then links (and grab joints)."""
+def relax_once(c):
+    """One relaxation pass over the :class:`Constraints` ``c``: limits, axles, the ground, then
+    links (and grab joints)."""
     # links last: they are the constraints we most want exact after a pass
-    project_limits(pos, prev, inv_mass, flags, root, mid, tip, frame, side, ref, arc_min, arc_max, edges,
-                   n_limits)
-    project_axles(pos, flags, axle_a, axle_b, axle_radius, axle_height, n_nodes)
-    project_ground(pos, radius, flags, lock_pos, n_nodes)
-    project_links(pos, inv_mass, flags, la, lb, rest, lflags, n_links)
+    project_limits(c.nodes, c.limits)
+    project_axles(c.nodes, c.axles)
+    project_ground(c.nodes)
+    project_links(c.nodes, c.links)
 
 
 @njit(cache=True)
-def solve_constraints(iterations, *cargs):
-    """Gauss-Seidel relaxation of every constraint, ``iterations`` times."""
+def named_constraints(args) -> Constraints:
+    """The :class:`Constraints` of :func:`constraints_of`'s plain tuples."""
+    return Constraints(
+        NodeColumns(*args[0]), LinkColumns(*args[1]), LimitColumns(*args[2]), AxleColumns(*args[3])
+    )
+
+
+@njit(cache=True)
+def solve_constraints(iterations, args):
+    """Gauss-Seidel relaxation of every constraint (``args``: :func:`constraints_of`), ``iterations``
+    times."""
+    c = named_constraints(args)
     for _ in range(iterations):
-        relax_once(*cargs)
-
-
-def constraint_args(state) -> tuple:
-    """The store arrays :func:`relax_once` takes, in order."""
-    n, lk, lim = state.nodes, state.links, state.limits
-    return (n.pos, n.prev, n.inv_mass, n.mass, n.flags, n.radius, n.lock_pos, n.count,
-            lk.a, lk.b, lk.rest, lk.flags, lk.count,
-            lim.root, lim.mid, lim.tip, lim.frame, lim.side, lim.ref, lim.arc_min, lim.arc_max,
-            lim.edges, lim.count,
-            n.axle_a, n.axle_b, n.axle_radius, n.axle_height)
-# fmt: on
+        relax_once(c)
 
 
 class ConstrainSystem(System):
@@ -369,4 +444,4 @@ class ConstrainSystem(System):
             links.rest[:n][closing] = np.maximum(
                 links.min_rest[:n][closing], links.rest[:n][closing] - GRAB_CLOSING * dt
             )
-        solve_constraints(self.scene.settings.iterations, *constraint_args(self.scene.state))
+        solve_constraints(self.scene.settings.iterations, constraints_of(self.scene.state))

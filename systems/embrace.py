@@ -16,6 +16,7 @@ import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
+from twig_ecs.components import HandAims
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -32,20 +33,29 @@ HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand tha
 # small child's back would be a blow: 1 kg at 1.3 m/s hurts a 1.05 m child)
 
 
-def glide(aims: dict, character, hand: str, point: np.ndarray, step: float) -> None:
+def glide(character, hand: str, point: np.ndarray, step: float) -> None:
     """Reach ``hand`` for a point that moves from the hand towards ``point`` by at most
-    ``step`` metres this step (``aims`` keeps it between steps, keyed (entity, hand)): a
-    hand that flew at a body would be a blow."""
-    key = (character.entity, hand)
-    aim = aims.get(key)
+    ``step`` metres this step (the character's :class:`~twig_ecs.components.HandAims`
+    keeps it between steps): a hand that flew at a body would be a blow."""
+    aims = esper.try_component(character.entity, HandAims)
+    if aims is None:
+        aims = HandAims()
+        esper.add_component(character.entity, aims)
+    aim = aims.points.get(hand)
     if aim is None:
         aim = character.node(("l_hand", "r_hand")[hand == "right"])
     move = point - aim
     far = float(np.linalg.norm(move))
     if far > step:
         move *= step / far
-    aims[key] = aim = aim + move
+    aims.points[hand] = aim = aim + move
     character.reach(tuple(aim), hand=hand)
+
+
+def lower_hands(character) -> None:
+    """Forget where the hands were reaching (a hug or an embrace is over)."""
+    if esper.has_component(character.entity, HandAims):
+        esper.remove_component(character.entity, HandAims)
 
 
 def held_at(character, hugger) -> str:
@@ -73,9 +83,8 @@ class Embrace(Behavior):
     name = "embrace"
 
     def setup(self) -> None:
-        """Who hugs whom this step (looked up once per step); where each hand is reaching."""
+        """Who hugs whom this step (looked up once per step)."""
         self.hugged_by: dict[int, int] = {}
-        self.aims: dict[tuple[int, str], np.ndarray] = {}
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """Only the characters someone is hugging."""
@@ -136,14 +145,14 @@ class Embrace(Behavior):
             if hand in character.holding:
                 continue
             spread = SIDE if not (small and phase == "wrap") else SHOULDER
-            glide(self.aims, character, hand, back + left * side * spread * other.scale, HAND_SPEED * dt)
+            glide(character, hand, back + left * side * spread * other.scale, HAND_SPEED * dt)
 
     def stop(self, character, goal) -> None:
         """Arms down, stand up."""
         character.stoop(None)
         character.lean(None)
+        lower_hands(character)
         for hand in ("left", "right"):
-            self.aims.pop((character.entity, hand), None)
             if hand not in character.holding:
                 character.pose("hang", hand=hand)
         character.look_at(None)

@@ -13,7 +13,7 @@ import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
-from twig_ecs.components import Character, Feisty
+from twig_ecs.components import Character, Feisty, LastFight
 from twig_ecs.steering import ground_distance
 
 COOLDOWN = 25.0  # s between fights
@@ -31,15 +31,13 @@ class Fight(Behavior):
     name = "fight"
     component = Feisty
 
-    def setup(self) -> None:
-        """When each character last fought."""
-        self.last: dict[int, float] = {}
-
     def process(self, dt: float) -> None:
         """Maybe start fights (as grapple goals); this behaviour never acts itself."""
         scene = self.scene
         for entity, (_, feisty) in esper.get_components(Character, Feisty):
-            if feisty.rival not in scene.entity_names or scene.time - self.last.get(entity, -1e9) < COOLDOWN:
+            last = esper.try_component(entity, LastFight)
+            cooling = last is not None and scene.time - last.at < COOLDOWN
+            if feisty.rival not in scene.entity_names or cooling:
                 continue
             me = scene.character_handle(entity)
             if me.goals or not me.autonomous:
@@ -50,7 +48,7 @@ class Fight(Behavior):
             if any(g.behavior == "hug" for g in getattr(rival, "goals", ())):
                 continue  # not while it runs to (or hugs) its grown-up
             if scene.rng.random() < feisty.temper * dt:
-                self.last[entity] = scene.time
+                esper.add_component(entity, LastFight(scene.time))
                 feisty.fights += 1
                 me.grapple(feisty.rival, duration=FIGHT_TIME)
 

@@ -26,6 +26,7 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
+    HANG,
     HUMAN,
     L_FOOT,
     L_HAND,
@@ -39,9 +40,16 @@ from twig_ecs.kernelmath import (
     step_length,
     walk_speed,
 )
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import (
+    MOVE_GAIT_ARC,
+    NODE_IN_CONTACT,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_MOVING,
+    columns,
+)
 from twig_ecs.system import System
-from twig_ecs.systems.gait_classic import control_gait_classic
+from twig_ecs.systems.gait_classic import GaitColumns, control_gait_classic
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
 SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down the rest (~20%)
@@ -62,7 +70,6 @@ HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far from under th
 FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes (4.4 m/s for an adult)
 HURRY_TIME = 0.1  # s: how soon a hurried swing lands
 KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
-GAIT_ARC = 2  # move_gravity of a gait step: an arc under the gait's lighter gravity, re-aimed in flight
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
@@ -138,7 +145,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
 
     A flying foot is kinematic (NODE_MOVING: infinite mass to the constraints), so a foot
     beyond its leg's reach would drag the hip after it and fold the body. Each frame:
-    a gait step (move_gravity GAIT_ARC) is re-aimed at ``(tx, tz)`` - where it should
+    a gait step (move_gravity MOVE_GAIT_ARC) is re-aimed at ``(tx, tz)`` - where it should
     land as the hip moves on - under the gait's lighter arc gravity (``k_arc`` g, the
     rest taken off through ``acc``); any move's landing is pulled in to where the leg
     reaches from where the hip will be (a kick within reach flies as launched); and the
@@ -149,7 +156,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
     h = nd[L_HIP + f]
     t = move_time[i]
     most = GUIDE_REACH * legs
-    aim = move_gravity[i] == GAIT_ARC
+    aim = move_gravity[i] == MOVE_GAIT_ARC
     if aim:
         for q in range(3):
             acc[i, q] -= (1.0 - k_arc) * gravity[q]
@@ -222,9 +229,18 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
 
 
 @njit(cache=True)
-def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk, swing,
-                 last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
-    """Guide, plant, unlock and launch feet for every standing character with the human walk."""
+def control_gait(args, n_chars, gravity, dt):
+    """Guide, plant, unlock and launch feet for every standing character with the human walk
+    (``args``: ``store.columns(GaitColumns, nodes, characters)``, see
+    :class:`~twig_ecs.systems.gait_classic.GaitColumns`)."""
+    cols = GaitColumns(*args)
+    pos, prev, acc = cols.pos, cols.prev, cols.acc
+    lock_pos, flags, radius = cols.lock_pos, cols.flags, cols.radius
+    move_time, move_gravity = cols.move_time, cols.move_gravity
+    nodes, mode, walk = cols.nodes, cols.mode, cols.walk
+    swing, last_step = cols.swing, cols.last_step
+    steps, arm_mode, scale = cols.steps, cols.arm_mode, cols.scale
+    leg_length, gait = cols.leg_length, cols.gait
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
         if gait[c] != HUMAN:
@@ -252,7 +268,7 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
             if move_time[i] > 0.0 and not flags[i] & NODE_LOCKED:
                 o = nd[L_FOOT + 1 - f]
                 ho = nd[L_HIP + 1 - f]
-                if move_gravity[i] == GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME:
+                if move_gravity[i] == MOVE_GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME:
                     # the planted leg nearly straight behind its hip: this step comes down
                     # now (a foot left far behind drags the hip down and back)
                     ex = pos[o, 0] - pos[ho, 0]
@@ -368,7 +384,7 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
         move_time[i] = t_fly
-        move_gravity[i] = GAIT_ARC
+        move_gravity[i] = MOVE_GAIT_ARC
         # ballistic: v0 = (target - p)/T - g' T / 2 lands on target at T under the arc's gravity
         prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_fly - 0.5 * k_arc * gravity[0] * t_fly) * dt
         prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_fly - 0.5 * k_arc * gravity[1] * t_fly) * dt
@@ -385,7 +401,7 @@ def control_gait(pos, prev, acc, lock_pos, flags, move_time, move_gravity, radiu
         # arm swing: the opposite hand forwards, this side's hand back
         if moving:
             for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
-                if arm_mode[c, hand - L_HAND] == 0:
+                if arm_mode[c, hand - L_HAND] == HANG:
                     j = nd[hand]
                     prev[j, 0] -= sign * ARM_SWING * v * dx * dt
                     prev[j, 2] -= sign * ARM_SWING * v * dz * dt
@@ -404,12 +420,9 @@ class GaitSystem(System):
         if ch.count == 0:
             return
         g = self.scene.settings.gravity
-        control_gait(n.pos, n.prev, n.acc, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
-                     ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode, ch.scale,
-                     ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
-        control_gait_classic(n.pos, n.prev, n.lock_pos, n.flags, n.move_time, n.move_gravity, n.radius,
-                             ch.nodes, ch.mode, ch.walk, ch.swing, ch.last_step, ch.steps, ch.arm_mode,
-                             ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
+        args = columns(GaitColumns, n, ch)
+        control_gait(args, ch.count, g, dt)
+        control_gait_classic(args, ch.count, g, dt)
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

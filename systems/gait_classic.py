@@ -18,12 +18,14 @@ through the links and their joint limits.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
     CLASSIC,
+    HANG,
     L_FOOT,
     L_HAND,
     L_HIP,
@@ -32,7 +34,7 @@ from twig_ecs.kernelmath import (
     clamp,
     forward_xz,
 )
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import MOVE_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 
 STEP_TIME = 0.34  # s a step takes at a walk
 RUN_STEP_TIME = 0.24  # s at a run (3 m/s and faster)
@@ -51,11 +53,42 @@ STRAY = 0.1  # of the leg's length: a foot this far up after its step is over is
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
+class GaitColumns(NamedTuple):
+    """The node and character-table columns the two gait kernels read and write (named as
+    in ``store.NODE_FIELDS`` and ``store.CHARACTER_FIELDS``)."""
+
+    pos: np.ndarray
+    prev: np.ndarray
+    acc: np.ndarray
+    lock_pos: np.ndarray
+    flags: np.ndarray
+    move_time: np.ndarray
+    move_gravity: np.ndarray
+    radius: np.ndarray
+    nodes: np.ndarray  # characters' node rows by role
+    mode: np.ndarray
+    walk: np.ndarray
+    swing: np.ndarray
+    last_step: np.ndarray
+    steps: np.ndarray
+    arm_mode: np.ndarray
+    scale: np.ndarray
+    leg_length: np.ndarray
+    gait: np.ndarray
+
+
 # fmt: off
 @njit(cache=True)
-def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, radius, nodes, mode, walk,
-                         swing, last_step, steps, arm_mode, scale, leg_length, gait, n_chars, gravity, dt):
-    """Plant, unlock and launch feet for every standing character with the classic gait."""
+def control_gait_classic(args, n_chars, gravity, dt):
+    """Plant, unlock and launch feet for every standing character with the classic gait
+    (``args``: ``store.columns(GaitColumns, nodes, characters)``)."""
+    cols = GaitColumns(*args)
+    pos, prev, lock_pos, flags, radius = cols.pos, cols.prev, cols.lock_pos, cols.flags, cols.radius
+    move_time, move_gravity = cols.move_time, cols.move_gravity
+    nodes, mode, walk = cols.nodes, cols.mode, cols.walk
+    swing, last_step = cols.swing, cols.last_step
+    steps, arm_mode, scale = cols.steps, cols.arm_mode, cols.scale
+    leg_length, gait = cols.leg_length, cols.gait
     for c in range(n_chars):
         if gait[c] != CLASSIC:
             continue
@@ -193,7 +226,7 @@ def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, ra
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
         move_time[i] = t_step
-        move_gravity[i] = 1
+        move_gravity[i] = MOVE_ARC
         # ballistic: v0 = (target - p)/T - g T / 2 lands on target at T under gravity
         prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_step - 0.5 * gravity[0] * t_step) * dt
         prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_step - 0.5 * gravity[1] * t_step) * dt
@@ -204,7 +237,7 @@ def control_gait_classic(pos, prev, lock_pos, flags, move_time, move_gravity, ra
         # arm swing: the opposite hand forwards, this side's hand back
         if moving:
             for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
-                if arm_mode[c, hand - L_HAND] == 0:
+                if arm_mode[c, hand - L_HAND] == HANG:
                     j = nd[hand]
                     prev[j, 0] -= sign * ARM_SWING * wx * dt
                     prev[j, 2] -= sign * ARM_SWING * wz * dt

@@ -14,7 +14,17 @@ import math
 
 from numba import njit
 
-from twig_ecs.kernelmath import HEAD, L_SHOULDER, R_SHOULDER, clamp, forward_xz, yaw_error
+from twig_ecs.kernelmath import (
+    GAZE_AHEAD,
+    GAZE_NODE,
+    GAZE_POINT,
+    HEAD,
+    L_SHOULDER,
+    R_SHOULDER,
+    clamp,
+    forward_xz,
+    yaw_error,
+)
 from twig_ecs.system import System
 
 TURN_RATE = 8.0  # rad/s
@@ -32,13 +42,13 @@ def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, head_dir, n
         sx, sz = forward_xz(pos, nd[L_SHOULDER], nd[R_SHOULDER])
         dx, dy, dz = sx, 0.0, sz
         mode = gaze_mode[c]
-        if mode == 2 and gaze_node[c] < 0:
-            mode = 0  # the node it watched is gone
-        if mode == 1:
+        if mode == GAZE_NODE and gaze_node[c] < 0:
+            mode = GAZE_AHEAD  # the node it watched is gone
+        if mode == GAZE_POINT:
             dx = gaze_point[c, 0] - pos[hd, 0]
             dy = gaze_point[c, 1] - pos[hd, 1]
             dz = gaze_point[c, 2] - pos[hd, 2]
-        elif mode == 2:
+        elif mode == GAZE_NODE:
             j = gaze_node[c]
             dx = pos[j, 0] - pos[hd, 0]
             dy = pos[j, 1] - pos[hd, 1]

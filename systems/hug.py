@@ -25,7 +25,10 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
 from twig_ecs.systems.collide import closest_segment_params
-from twig_ecs.systems.embrace import glide  # (importing it registers the partner's answer to a hug)
+from twig_ecs.systems.embrace import (  # (importing it registers the partner's answer to a hug)
+    glide,
+    lower_hands,
+)
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
@@ -63,10 +66,6 @@ class Hug(Behavior):
         ),
     )
 
-    def setup(self) -> None:
-        """Where each hugger's hands are reaching: {(entity, hand): point}."""
-        self.aims: dict[tuple[int, str], np.ndarray] = {}
-
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release."""
         target = goal.params["target"]
@@ -98,7 +97,7 @@ class Hug(Behavior):
         if phase == "hold" and other.scale > BIG * scale:
             character.lean(toward * LEAN_IN * scale)  # into a grown-up's legs: they hold firm
         for hand, point in back_points(character, other).items():
-            glide(self.aims, character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
+            glide(character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
         if phase == "wrap":
             on = hands_on_back(character, other)
             if on == 2:
@@ -116,8 +115,7 @@ class Hug(Behavior):
         """Arms down (a carried toy stays in its hand) and stand up straight."""
         character.stoop(None)
         character.lean(None)
-        for hand in ("left", "right"):
-            self.aims.pop((character.entity, hand), None)
+        lower_hands(character)
         character.pose("hang")
         character.stop()
         character.look_at(None)

@@ -8,19 +8,44 @@ Writes ``pos``, ``prev``, ``vel`` (the step's displacement before damping), clea
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
+
+
+class IntegrateColumns(NamedTuple):
+    """The node columns a Verlet step reads and writes (``store.NODE_FIELDS`` names them)."""
+
+    pos: np.ndarray
+    prev: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    ctrl_acc: np.ndarray
+    lock_pos: np.ndarray
+    inv_mass: np.ndarray
+    damp_air: np.ndarray
+    damp_ground: np.ndarray
+    damp_ref: np.ndarray
+    damp_rel: np.ndarray
+    move_time: np.ndarray
+    move_gravity: np.ndarray
+    flags: np.ndarray
 
 
 # fmt: off
 @njit(cache=True)
-def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air, damp_ground,
-                    damp_ref, damp_rel, move_time, move_gravity, flags, count, gravity, dt, max_speed):
-    """One Verlet step for every node, in place."""
+def integrate_nodes(args, count, gravity, dt, max_speed):
+    """One Verlet step for every node, in place (``args``: ``store.columns(IntegrateColumns, nodes)``)."""
+    cols = IntegrateColumns(*args)
+    pos, prev, vel = cols.pos, cols.prev, cols.vel
+    acc, ctrl_acc, lock_pos = cols.acc, cols.ctrl_acc, cols.lock_pos
+    inv_mass, damp_air, damp_ground = cols.inv_mass, cols.damp_air, cols.damp_ground
+    damp_ref, damp_rel = cols.damp_ref, cols.damp_rel
+    move_time, move_gravity, flags = cols.move_time, cols.move_gravity, cols.flags
     for i in range(count):
         for k in range(3):
             vel[i, k] = pos[i, k] - prev[i, k]
@@ -44,7 +69,7 @@ def integrate_nodes(pos, prev, vel, acc, ctrl_acc, lock_pos, inv_mass, damp_air,
                 f &= ~np.uint32(NODE_MOVING)
             d = 0.0
             ref = -1
-            if move_gravity[i] == 0:
+            if move_gravity[i] == MOVE_LINE:
                 g = 0.0
         # a speed limit: no part of a body moves faster than max_speed, so a rare
         # fight between constraints cannot fling a node across the scene
@@ -74,6 +99,5 @@ class IntegrateSystem(System):
         """Integrate all nodes one step."""
         s = self.scene.state
         n = s.nodes
-        integrate_nodes(n.pos, n.prev, n.vel, n.acc, n.ctrl_acc, n.lock_pos, n.inv_mass, n.damp_air,
-                        n.damp_ground, n.damp_ref, n.damp_rel, n.move_time, n.move_gravity, n.flags,
-                        n.count, self.scene.settings.gravity, dt, self.scene.settings.max_speed)  # fmt: skip
+        settings = self.scene.settings
+        integrate_nodes(columns(IntegrateColumns, n), n.count, settings.gravity, dt, settings.max_speed)

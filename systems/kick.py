@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import MOVE_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
 
 FEET = ("l_foot", "r_foot")
 
@@ -46,7 +46,7 @@ def launch_kick(character, foot: str, target, duration: float) -> None:
     n.flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
     n.flags[i] |= np.uint32(NODE_LOCK_ON_CONTACT | NODE_MOVING)
     n.move_time[i] = duration
-    n.move_gravity[i] = 1
+    n.move_gravity[i] = MOVE_ARC
     n.prev[i] = p - v0 * dt
     # the foot's step timer: the gait leaves it alone (and steps no other foot) meanwhile
     st.characters.swing[character._crow, FEET.index(foot)] = duration

@@ -11,13 +11,11 @@ capsules hit it; a kick that misses leaves it lying, and the child lines up agai
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Attachment, Playful
+from twig_ecs.components import Attachment, Kicking, Playful, ToyHome
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.approach import obstacles_near
@@ -36,18 +34,6 @@ ROLLING = 1.5  # m/s: a toy rolling faster than this is chased, not kicked
 ARRIVED = 1.2  # m: a toy this near the place it was sent to gets a new one
 YARD_MARGIN = 2.5  # m inside the fence that a kick aims for
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
-
-
-@dataclass(slots=True)
-class _Kicker:
-    """One child's game: where it wants the toy to go, and its kick in flight."""
-
-    aim_at: np.ndarray
-    kicked_at: float = -1e9
-    chosen_at: float = 0.0
-    kick_ends: float = -1e9
-    speed_before: float = 0.0
-    counted: bool = True
 
 
 def yard_of(scene) -> tuple[np.ndarray, np.ndarray] | None:
@@ -77,10 +63,9 @@ class Play(Behavior):
     component = Playful
 
     def setup(self) -> None:
-        """Each child's game; the yard (looked up once)."""
-        self.game: dict[int, _Kicker] = {}
+        """The yard (looked up once: fences do not move). Each child's game is its
+        :class:`~twig_ecs.components.Kicking` component."""
         self.yard: tuple[np.ndarray, np.ndarray] | None | bool = False
-        self.home: dict[str, np.ndarray] = {}
 
     def activation(self, character, mind: Mind, goal) -> float:
         """Joy, less the anxiety of an attached child."""
@@ -101,7 +86,12 @@ class Play(Behavior):
             lo, hi = lo + YARD_MARGIN, np.maximum(hi - YARD_MARGIN, lo + YARD_MARGIN)
             x, z = rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])
         else:
-            home = self.home.setdefault(toy_name, toy_at.copy())
+            toy = self.scene.entity(toy_name).entity
+            home = esper.try_component(toy, ToyHome)
+            if home is None:
+                home = ToyHome(toy_at.copy())
+                esper.add_component(toy, home)
+            home = home.at
             angle, r = rng.uniform(0.0, 2.0 * np.pi), OPEN_FIELD * np.sqrt(rng.uniform())
             x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
         return np.array([x, 0.0, z])
@@ -113,10 +103,11 @@ class Play(Behavior):
         now = self.scene.time
         scale = character.scale
         ball = toy.position
-        game = self.game.get(character.entity)
+        game = esper.try_component(character.entity, Kicking)
         stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
         if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
-            game = self.game[character.entity] = _Kicker(self._target(playful.toy, ball), chosen_at=now)
+            game = Kicking(self._target(playful.toy, ball), chosen_at=now)
+            esper.add_component(character.entity, game)
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
             game.counted = True
@@ -162,7 +153,7 @@ class Play(Behavior):
         offsets = [abs(float((character.node(f) - ball) @ left)) for f in FEET]
         return FEET[int(np.argmin(offsets))]
 
-    def _kick(self, character, foot: str, ball: np.ndarray, aim: np.ndarray, game: _Kicker,
+    def _kick(self, character, foot: str, ball: np.ndarray, aim: np.ndarray, game: Kicking,
               speed: float) -> None:  # fmt: skip
         """Swing ``foot`` through the toy towards the aim; the other foot stays planted."""
         scale = character.scale

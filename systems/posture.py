@@ -18,7 +18,9 @@ would); arms hang unless the arm controller holds them.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
@@ -44,7 +46,7 @@ from twig_ecs.kernelmath import (
     walk_speed,
     yaw_error,
 )
-from twig_ecs.store import NODE_LOCKED
+from twig_ecs.store import NODE_LOCKED, columns
 from twig_ecs.system import System
 from twig_ecs.systems.gait import LEAD, WALK_HEIGHT, step_timing
 
@@ -72,11 +74,42 @@ LOWER = (PELVIS, SPINE, NECK, L_HIP, R_HIP)
 UPPER = (L_SHOULDER, R_SHOULDER, HEAD)
 
 
+class PostureColumns(NamedTuple):
+    """The node and character-table columns the posture kernel reads and writes (named as in
+    ``store.NODE_FIELDS`` and ``store.CHARACTER_FIELDS``)."""
+
+    pos: np.ndarray
+    prev: np.ndarray
+    acc: np.ndarray
+    mass: np.ndarray
+    radius: np.ndarray
+    flags: np.ndarray
+    move_time: np.ndarray
+    nodes: np.ndarray  # characters' node rows by role
+    mode: np.ndarray
+    mode_time: np.ndarray
+    walk: np.ndarray
+    seat: np.ndarray
+    head_dir: np.ndarray
+    stand_height: np.ndarray
+    crouch: np.ndarray
+    lean: np.ndarray
+    scale: np.ndarray
+    leg_length: np.ndarray
+    gait: np.ndarray
+
+
 # fmt: off
 @njit(cache=True)
-def control_posture(pos, prev, acc, mass, radius, flags, move_time, nodes, mode, mode_time, walk, seat,
-                    head_dir, stand_height, crouch, lean, scale, leg_length, gait, n_chars, gravity, dt):
-    """Add posture accelerations for every character (see the module docstring)."""
+def control_posture(args, n_chars, gravity, dt):
+    """Add posture accelerations for every character (see the module docstring; ``args``:
+    ``store.columns(PostureColumns, nodes, characters)``)."""
+    cols = PostureColumns(*args)
+    pos, prev, acc, mass, radius, flags = cols.pos, cols.prev, cols.acc, cols.mass, cols.radius, cols.flags
+    move_time, nodes, mode, mode_time, walk = cols.move_time, cols.nodes, cols.mode, cols.mode_time, cols.walk
+    seat, head_dir = cols.seat, cols.head_dir
+    stand_height, crouch, lean = cols.stand_height, cols.crouch, cols.lean
+    scale, leg_length, gait = cols.scale, cols.leg_length, cols.gait
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
         if mode[c] == LIMP:
@@ -287,6 +320,4 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = self.scene.settings.gravity
-        control_posture(n.pos, n.prev, n.acc, n.mass, n.radius, n.flags, n.move_time, ch.nodes, ch.mode,
-                        ch.mode_time, ch.walk, ch.seat, ch.head_dir, ch.stand_height, ch.crouch, ch.lean,
-                        ch.scale, ch.leg_length, ch.gait, ch.count, g, dt)  # fmt: skip
+        control_posture(columns(PostureColumns, n, ch), ch.count, g, dt)

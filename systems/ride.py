@@ -11,14 +11,12 @@ to the merry-go-round by the behaviour).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.character import GRAB_REACH
-from twig_ecs.components import Character, Rider
+from twig_ecs.components import Character, Rider, Spin
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.systems.approach import obstacles_near
@@ -32,17 +30,6 @@ OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands and runs
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
 
 
-@dataclass(slots=True)
-class _Spin:
-    """One child's go at the merry-go-round."""
-
-    since: float
-    phase: str = "go"  # go -> take -> run
-    bar: str = ""  # the node it holds
-    phase_since: float = 0.0
-    hands: tuple = ()
-
-
 @register
 class Ride(Behavior):
     """Spin the merry-go-round by running round holding on to it."""
@@ -50,28 +37,24 @@ class Ride(Behavior):
     name = "ride"
     component = Rider
 
-    def setup(self) -> None:
-        """Per child: its current go (if it wants one)."""
-        self.spin: dict[int, _Spin] = {}
-
     def process(self, dt: float) -> None:
         """Maybe get the urge; then propose."""
         scene = self.scene
         for entity, (_, rider) in esper.get_components(Character, Rider):
-            if entity not in self.spin and rider.ride in scene.entity_names:
+            if not esper.has_component(entity, Spin) and rider.ride in scene.entity_names:
                 if scene.rng.random() < rider.whim * dt:
-                    self.spin[entity] = _Spin(since=scene.time)
+                    esper.add_component(entity, Spin(since=scene.time))
         super().process(dt)
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while the urge lasts."""
-        return WANT if character.entity in self.spin else 0.0
+        return WANT if esper.has_component(character.entity, Spin) else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Go to the rim, take hold, run round."""
         rider = self.settings(character)
         ride = self.scene.entity(rider.ride)
-        spin = self.spin[character.entity]
+        spin = esper.component_for_entity(character.entity, Spin)
         now = self.scene.time
         scale = character.scale
         names = ride.node_names
@@ -148,7 +131,8 @@ class Ride(Behavior):
         return names[min(handles, key=lambda k: ground_distance(pos[k], character.position))]
 
     def _done(self, character) -> None:
-        self.spin.pop(character.entity, None)
+        if esper.has_component(character.entity, Spin):
+            esper.remove_component(character.entity, Spin)
         self._let_go(character)
 
     def _let_go(self, character) -> None:
@@ -161,8 +145,9 @@ class Ride(Behavior):
     def stop(self, character, goal) -> None:
         """Let go of the bar, stop (an interrupted go starts again from walking there)."""
         self._let_go(character)
-        if character.entity in self.spin:
-            self.spin[character.entity].phase = "go"
+        spin = esper.try_component(character.entity, Spin)
+        if spin is not None:
+            spin.phase = "go"
         character.stop()
         character.pose("hang")
 

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import math
 
+import esper
 import numpy as np
 from numba import njit
 
+from twig_ecs.components import Body
 from twig_ecs.events import Contact, Pain
 from twig_ecs.system import System
 
@@ -63,17 +65,19 @@ class SenseSystem(System):
                 continue
             energy = float(col.hit_energy[c])
             body_e, other_e = int(bodies.entity[b]), int(bodies.entity[ob])
-            link_e, other_link_e = self._collider_entity(c), self._collider_entity(other)
+            part, other_part = self._part(c, body_e), self._part(other, other_e)
             # one contact event per pair: the side with the lower index reports it
             if c < other or int(col.hit_by[other]) != c:
-                self.scene.emit(Contact(body_e, link_e, other_e, other_link_e, energy))
+                self.scene.emit(Contact(body_e, part, other_e, other_part, energy))
             if energy >= bodies.pain_threshold[b]:
                 level = float(bodies.pain[b])
-                self.scene.emit(Pain(body_e, link_e, other_e, energy, level))
+                self.scene.emit(Pain(body_e, part, other_e, energy, level))
 
-    def _collider_entity(self, c: int) -> int:
+    def _part(self, c: int, body_entity: int) -> str:
+        """The name of collider ``c`` on its body: its link's "a-b", or a sphere's node name."""
         s = self.scene.state
+        body = esper.component_for_entity(body_entity, Body)
         link = int(s.colliders.link[c])
         if link >= 0:
-            return int(s.links.entity[link])
-        return int(s.nodes.entity[s.colliders.a[c]])
+            return body.link_name(link, s.links)
+        return body.node_names[int(s.colliders.a[c]) - body.node_start]

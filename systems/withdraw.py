@@ -13,7 +13,7 @@ import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Character
+from twig_ecs.components import Character, Withdrawing
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
@@ -29,13 +29,6 @@ class Withdraw(Behavior):
     name = "withdraw"
     reflex = True
 
-    def setup(self) -> None:
-        """Remember, per character entity, when its retreat ends and which way it goes."""
-        self.until: dict[int, float] = {}
-        self.stagger_until: dict[int, float] = {}
-        self.away: dict[int, np.ndarray] = {}
-        self.source: dict[int, int] = {}
-
     def process(self, dt: float) -> None:
         """Start retreats for this step's blows, then propose activations."""
         scene = self.scene
@@ -47,29 +40,32 @@ class Withdraw(Behavior):
             there = scene.entity(other).position if other else me.position - me.facing
             away = (me.position - there) * np.array([1.0, 0.0, 1.0])
             norm = float(np.linalg.norm(away))
-            self.away[event.body] = away / norm if norm > 1e-6 else -me.facing
-            self.stagger_until[event.body] = scene.time + DURATION
-            self.until[event.body] = scene.time + DURATION + TURN_AWAY
-            self.source[event.body] = event.source_body
+            away = away / norm if norm > 1e-6 else -me.facing
+            now = scene.time
+            # a new blow restarts the retreat (the component, if one is under way, is renewed)
+            esper.add_component(event.body, Withdrawing(now + DURATION + TURN_AWAY, now + DURATION, away,
+                                                        event.source_body))  # fmt: skip
         super().process(dt)
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """Only the characters whose retreat is still running (not every character)."""
         now = self.scene.time
-        return [(e, esper.component_for_entity(e, Mind)) for e, t in self.until.items()
-                if t > now and esper.entity_exists(e)]  # fmt: skip
+        return [(e, esper.component_for_entity(e, Mind)) for e, retreat in esper.get_component(Withdrawing)
+                if retreat.until > now and esper.has_component(e, Mind)]  # fmt: skip
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while a retreat is running."""
-        return ACTIVATION if self.until.get(character.entity, -1.0) > self.scene.time else 0.0
+        retreat = esper.try_component(character.entity, Withdrawing)
+        return ACTIVATION if retreat is not None and retreat.until > self.scene.time else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Back off, arms up, watching the source; then turn away and walk off."""
-        away = self.away[character.entity]
-        if self.stagger_until.get(character.entity, -1.0) > self.scene.time:
+        retreat = esper.component_for_entity(character.entity, Withdrawing)
+        away = retreat.away
+        if retreat.stagger_until > self.scene.time:
             character.walk(away * SPEED * character.scale**0.5)
             character.pose("grapple")
-            source = self.scene.name_of(self.source[character.entity])
+            source = self.scene.name_of(retreat.source)
             if source and source != character.name:
                 character.look_at(source)
             return
@@ -78,7 +74,10 @@ class Withdraw(Behavior):
         character.look_at(None)
 
     def stop(self, character, goal) -> None:
-        """Stand, arms down."""
+        """Stand, arms down; the retreat, if over, is forgotten."""
+        retreat = esper.try_component(character.entity, Withdrawing)
+        if retreat is not None and retreat.until <= self.scene.time:
+            esper.remove_component(character.entity, Withdrawing)
         character.stop()
         character.pose("hang")
         character.look_at(None)

@@ -21,7 +21,22 @@ from twig_ecs.behavior import Goal, Mind, on_goal_schema
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.handles import BodyHandle
-from twig_ecs.kernelmath import ARM_MODES, CARRY, GAITS, HANG, LIMP, POINT, REACH, RISE, SIT, STAND, WAVE
+from twig_ecs.kernelmath import (
+    ARM_MODES,
+    CARRY,
+    GAITS,
+    GAZE_AHEAD,
+    GAZE_NODE,
+    GAZE_POINT,
+    HANG,
+    LIMP,
+    POINT,
+    REACH,
+    RISE,
+    SIT,
+    STAND,
+    WAVE,
+)
 from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCKED, ROLES
 from twig_ecs.validate import LIMIT, suggest
 
@@ -195,9 +210,9 @@ class CharacterHandle(BodyHandle):
     def gaze_target(self) -> np.ndarray | None:
         """The point being looked at (None when looking where it goes)."""
         ch, row = self._chars(), self._crow
-        if ch.gaze_mode[row] == 1:
+        if ch.gaze_mode[row] == GAZE_POINT:
             return ch.gaze_point[row].copy()
-        if ch.gaze_mode[row] == 2 and ch.gaze_node[row] >= 0:
+        if ch.gaze_mode[row] == GAZE_NODE and ch.gaze_node[row] >= 0:
             return self.scene.state.nodes.pos[ch.gaze_node[row]].copy()
         return None
 
@@ -333,13 +348,13 @@ class CharacterHandle(BodyHandle):
         """Face a point or an entity (tracked as it moves); None: look where it goes."""
         ch, row = self._chars(), self._crow
         if target is None:
-            ch.gaze_mode[row] = 0
+            ch.gaze_mode[row] = GAZE_AHEAD
         elif isinstance(target, str):
             ch.gaze_node[row] = self._target_node(target, node)
-            ch.gaze_mode[row] = 2
+            ch.gaze_mode[row] = GAZE_NODE
         else:
             ch.gaze_point[row] = _vector(target, "look-at point")
-            ch.gaze_mode[row] = 1
+            ch.gaze_mode[row] = GAZE_POINT
 
     # -- arms ----------------------------------------------------------------------------
 

@@ -27,9 +27,9 @@ class Contact(Event):
 
     kind: ClassVar[str] = "contact"
     body: int  # entity of the struck body
-    link: int  # entity of its struck link (or the node entity for a sphere)
+    link: str  # name of its struck link ("a-b" from its node names), or of the node of a sphere
     other_body: int
-    other_link: int
+    other_link: str
     energy: float  # J, along the contact normal
 
 
@@ -39,7 +39,7 @@ class Pain(Event):
 
     kind: ClassVar[str] = "pain"
     body: int
-    link: int
+    link: str  # name of the struck link ("a-b"), or of the node of a sphere
     source_body: int  # entity of the body that delivered the blow
     energy: float  # J
     level: float  # pain level after the blow

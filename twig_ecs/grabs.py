@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import esper
 import numpy as np
 
-from twig_ecs.components import Body, Character, GrabJoint, Link, Node
+from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Grabbed, Released
 from twig_ecs.store import LINK_GRAB
@@ -68,8 +68,6 @@ def release(scene: Scene, grab: int) -> None:
     esper.delete_entity(grab, immediate=True)
     for _, character in esper.get_component(Character):
         character.holding = {h: g for h, g in character.holding.items() if g != grab}
-    for _, link in esper.get_component(Link):
-        link.index = int(remap[link.index])
     for _, other in esper.get_component(GrabJoint):
         other.index = int(remap[other.index])
     for _, body in esper.get_component(Body):
@@ -79,16 +77,10 @@ def release(scene: Scene, grab: int) -> None:
 
 
 def remove_body(scene: Scene, entity: int) -> None:
-    """Remove a body's rows from the store and its node, link and grab-joint entities from the world."""
+    """Remove a body's rows from the store, its entity and its grab joints' entities from the world."""
     body = esper.component_for_entity(entity, Body)
     doomed = {entity}
     remap = scene.state.remove_body(body.index)
-    for e, node in list(esper.get_component(Node)):
-        if node.body == entity:
-            doomed.add(e)
-    for e, link in list(esper.get_component(Link)):
-        if link.body == entity:
-            doomed.add(e)
     for e, grab in list(esper.get_component(GrabJoint)):
         if entity in (grab.holder, grab.held):
             doomed.add(e)
@@ -100,10 +92,6 @@ def remove_body(scene: Scene, entity: int) -> None:
 def follow_remap(remap: dict[str, np.ndarray]) -> None:
     """Follow a store compaction: rewrite every row index held by components."""
     nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
-    for _, node in esper.get_component(Node):
-        node.index = int(nodes[node.index])
-    for _, link in esper.get_component(Link):
-        link.index = int(links[link.index])
     for _, grab in esper.get_component(GrabJoint):
         grab.index = int(links[grab.index])
     for _, body in esper.get_component(Body):

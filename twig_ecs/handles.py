@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import esper
 import numpy as np
 
-from twig_ecs.components import Body
+from twig_ecs.components import Body, PainSensor
 from twig_ecs.errors import TwigError
 from twig_ecs.store import NODE_LOCK_ON_CONTACT, NODE_LOCKED
 from twig_ecs.validate import suggest
@@ -111,6 +111,15 @@ class BodyHandle:
     def pain(self) -> float:
         """Current pain level (0 without a pain sensor)."""
         return float(self.scene.state.bodies.pain[self.body.index])
+
+    @property
+    def pain_sensor(self) -> PainSensor | None:
+        """Its pain sensor's parameters, read from the store (None: it feels no pain)."""
+        bodies, row = self.scene.state.bodies, self.body.index
+        if not np.isfinite(bodies.pain_threshold[row]):
+            return None
+        return PainSensor(float(bodies.pain_threshold[row]), float(bodies.pain_half_life[row]),
+                          float(bodies.pain_gain[row]))  # fmt: skip
 
     def set_node_velocity(self, node: str, velocity: tuple[float, float, float]) -> None:
         """Give one node a velocity (m/s) from now on (Verlet: moves its previous position)."""

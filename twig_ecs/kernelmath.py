@@ -25,6 +25,9 @@ HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
 ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
              "carry": CARRY}  # fmt: skip
 
+# gaze modes (CHARACTER_FIELDS["gaze_mode"]), see systems/gaze.py: where the head turns to
+GAZE_AHEAD, GAZE_POINT, GAZE_NODE = 0, 1, 2  # the way it walks (or faces); gaze_point; gaze_node
+
 # gaits (CHARACTER_FIELDS["gait"]): the classic stepping (systems/gait_classic.py) or the
 # human walk (systems/gait.py, docs/locomotion.md)
 CLASSIC, HUMAN = 0, 1

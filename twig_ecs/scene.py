@@ -24,7 +24,7 @@ from twig_ecs import snapshot
 from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
 from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.clock import STEP, FixedStepClock
-from twig_ecs.components import Character, GrabJoint, Link, Memory, Name, Node
+from twig_ecs.components import Character, GrabJoint, Memory, Name
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.esperworld import make_deterministic, new_world_name
 from twig_ecs.events import Event, EventBus
@@ -407,15 +407,11 @@ class Scene:
         return list(self._names)
 
     def name_of(self, entity: int) -> str | None:
-        """The name of an entity (a body, or the body owning a node or link)."""
+        """The name of an entity (a body; None for a grab joint or an unknown entity)."""
         name = self._name_by_entity.get(entity)
         if name is not None:  # a named body: the common case, without esper look-ups
             return name
         self.activate()
-        for comp in (Node, Link):
-            part = esper.try_component(entity, comp)
-            if part is not None:
-                entity = part.body
         name = esper.try_component(entity, Name)
         return name.value if name else None
 

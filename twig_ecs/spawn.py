@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import esper
 import numpy as np
 
-from twig_ecs.components import Body, Link, Name, Node, PainSensor
+from twig_ecs.components import Body, Name, PainSensor
 from twig_ecs.store import (
     LINK_BRACE,
     LINK_COLLIDE,
@@ -66,7 +66,7 @@ def spawn_body(
     pain: PainSensor | None | bool = True,
     damping: Damping | None = None,
 ) -> int:
-    """Create one body: rows in the store plus Body/Node/Link entities. Returns the body entity.
+    """Create one body: rows in the store and one entity (Name, Body). Returns the body entity.
 
     ``height`` scales lengths and radii by height/reference_height; masses scale by the
     cube of that unless ``mass`` (total, kg) is given. The caller has validated names.
@@ -129,7 +129,6 @@ def spawn_body(
         if spec.muscle_to is not None:
             nodes.damp_ref[i] = first + index[spec.muscle_to]
             nodes.damp_rel[i] = spec.muscle_damping
-        nodes.entity[i] = esper.create_entity(Node(i, body_entity, spec.name))
     if template.axle is not None:
         a, b = first + index[template.axle[0]], first + index[template.axle[1]]
         axis = nodes.pos[b] - nodes.pos[a]
@@ -167,7 +166,6 @@ def spawn_body(
         links.group[j] = groups.get(spec.self_group, 0)
         links.body[j] = body
         links.color[j] = spec.color if spec.color is not None else body_color
-        links.entity[j] = esper.create_entity(Link(j, body_entity, f"{spec.a}-{spec.b}"))
 
     # -- joint limits
     limits = state.limits
@@ -183,6 +181,7 @@ def spawn_body(
         limits.set_arc(j, *spec.arc)
         limits.body[j] = body
 
+    # the pain sensor's parameters live in the store's body columns (above), not in a component
     components = [
         Name(name),
         Body(
@@ -195,8 +194,6 @@ def spawn_body(
             height=height,
         ),
     ]
-    if sensor is not None:
-        components.append(sensor)
     for component in components:
         esper.add_component(body_entity, component)
     state.colliders_dirty = True  # rebuilt once before the next step, not per spawn

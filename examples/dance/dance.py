@@ -1,14 +1,19 @@
 """A plug-in behaviour: characters with a DanceMood dance when nothing else matters more.
 
 It shows the whole recipe of docs/authoring-behaviours.md: a component (the
-per-character parameters), a Behavior system that proposes an activation and, when it
-wins, writes the character's motor vector through the CharacterHandle API.
+per-character parameters), a component for what it is in the middle of (its dance
+floor: state lives on the character, not in a dict on the system), and a Behavior
+system that proposes an activation and, when it wins, writes the character's motor
+vector through the CharacterHandle API.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import esper
+import numpy as np
 
 from twig_ecs.behavior import Behavior
 
@@ -22,6 +27,13 @@ class DanceMood:
     sway: float = 0.5  # m/s of the side-to-side steps
 
 
+@dataclass(slots=True)
+class DanceFloor:
+    """Where a dancing character started dancing: it sways round that spot."""
+
+    at: np.ndarray
+
+
 class Dance(Behavior):
     """Sway from side to side, arms up in turns, while the mood lasts."""
 
@@ -33,16 +45,16 @@ class Dance(Behavior):
         return 0.0 if mind.goals else self.settings(character).joy
 
     def start(self, character, goal) -> None:
-        """Remember where the dance floor is."""
-        self.home = getattr(self, "home", {})
-        self.home[character.entity] = character.position.copy()
+        """Remember where the dance floor is (on the character: the scene's inspector and
+        snapshots see it, and it goes when the character does)."""
+        esper.add_component(character.entity, DanceFloor(character.position.copy()))
 
     def act(self, character, mind, goal, dt: float) -> None:
         """Step left and right round the spot, waving one arm and then the other."""
         mood = self.settings(character)
         phase = 2 * math.pi * mood.tempo * character.scene.time
         side = character.facing[[2, 0]] * [1, -1]  # the character's left, on the ground
-        drift = self.home[character.entity] - character.position
+        drift = esper.component_for_entity(character.entity, DanceFloor).at - character.position
         vx = side[0] * mood.sway * math.sin(phase) + 0.5 * drift[0]
         vz = side[1] * mood.sway * math.sin(phase) + 0.5 * drift[2]
         character.walk((vx, 0.0, vz))
@@ -51,6 +63,7 @@ class Dance(Behavior):
         character.pose("hang", hand=down)
 
     def stop(self, character, goal) -> None:
-        """Stand still, arms down."""
+        """Stand still, arms down; the dance floor is forgotten."""
+        esper.remove_component(character.entity, DanceFloor)
         character.stop()
         character.gesture(None, hand="both")
