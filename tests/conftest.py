@@ -1,12 +1,70 @@
-"""Shared fixtures: scenes that are always closed, so no test sees another's world."""
+"""Shared fixtures: scenes that are always closed, so no test sees another's world; the
+kernels made ready once per session; and the five-minute schoolyard, simulated once.
+
+How to run the tests (the fast loop, the ``slow`` marker, the two workers): docs/testing.md.
+"""
 
 from __future__ import annotations
+
+import time
 
 import esper
 import numpy as np
 import pytest
+from yard_run import YardRun, run_the_yard
 
-from twig_ecs import Scene, Settings
+from twig_ecs import Scene, Settings, kernels
+
+# -- the kernels: compiled before the first test, not inside it --------------------------------------
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Compile the kernels into the cache before any test, when they are not there yet.
+
+    Runs once, in the process that starts the run (with ``-n 2``, before the workers start,
+    so they both find the cache full instead of compiling the same kernels side by side).
+    The time it took is a line of the summary, not a part of whichever test ran first.
+    """
+    if hasattr(session.config, "workerinput"):  # an xdist worker: the controller did this
+        return
+    started = time.perf_counter()
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    say = reporter.write_line if reporter is not None else None
+    build = kernels.prepare("schoolyard", say=say)
+    seconds = time.perf_counter() - started
+    if build is None:
+        line = f"kernels: found in the cache ({seconds:.1f} s to check)"
+        if kernels.jit_disabled():
+            line = "kernels: NUMBA_DISABLE_JIT=1, every kernel runs as plain Python"
+    else:
+        line = f"kernels: compiled {len(build.compiled)} before the tests in {seconds:.1f} s"
+        if build.errors:
+            line += f"; the build failed ({'; '.join(build.errors)}), each test compiles what it needs"
+    session.config.stash[_KERNEL_LINE] = line
+
+
+_KERNEL_LINE = pytest.StashKey[str]()
+
+
+def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
+    """Say how the kernels were made ready (compiled, or found in the cache)."""
+    line = config.stash.get(_KERNEL_LINE, None)
+    if line is not None:
+        terminalreporter.write_line(line)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def loaded_kernels() -> None:
+    """Load every kernel the schoolyard runs from the cache into this process, once.
+
+    The load (about half a second) is this fixture's setup, not a part of the first test
+    that happens to step a scene.
+    """
+    with Scene.load("schoolyard") as scene:
+        scene.step()
+
+
+# -- scenes -----------------------------------------------------------------------------------------
 
 
 @pytest.fixture
@@ -34,3 +92,17 @@ def zero_g_scene(scenes):
     scene = Scene(settings=Settings(gravity=np.zeros(3)))
     scenes.append(scene)
     return scene
+
+
+# -- the five-minute schoolyard ---------------------------------------------------------------------
+
+
+@pytest.fixture(scope="session")
+def yard_five_minutes(tmp_path_factory) -> YardRun:
+    """Five minutes of the schoolyard (seed 0) run once for the whole session, through
+    ``twig run --soak --report json --trace --plot``: its report, trace and plot, read-only.
+
+    Tests that use it carry ``pytest.mark.xdist_group(YARD_GROUP)`` so that, with workers,
+    they all run in the one worker that simulated it.
+    """
+    return run_the_yard(tmp_path_factory.mktemp("yard"))
