@@ -11,7 +11,7 @@ import time
 import esper
 import numpy as np
 import pytest
-from yard_run import YardRun, run_the_yard
+from yard_run import SEED, YARD_ID, YardRun, run_the_yard, scope_of
 
 from twig_ecs import Scene, Settings, kernels
 
@@ -97,12 +97,36 @@ def zero_g_scene(scenes):
 # -- the five-minute schoolyard ---------------------------------------------------------------------
 
 
-@pytest.fixture(scope="session")
-def yard_five_minutes(tmp_path_factory) -> YardRun:
+@pytest.fixture(scope="session", params=[pytest.param(SEED, id=YARD_ID)])
+def yard_five_minutes(request, tmp_path_factory) -> YardRun:
     """Five minutes of the schoolyard (seed 0) run once for the whole session, through
     ``twig run --soak --report json --trace --plot``: its report, trace and plot, read-only.
 
-    Tests that use it carry ``pytest.mark.xdist_group(YARD_GROUP)`` so that, with workers,
-    they all run in the one worker that simulated it.
+    Its one parameter puts ``[yard-300s-seed0]`` in the id of every test that uses it, by
+    which :func:`pytest_xdist_make_scheduler` keeps those tests in one worker.
     """
-    return run_the_yard(tmp_path_factory.mktemp("yard"))
+    return run_the_yard(tmp_path_factory.mktemp("yard"), seed=request.param)
+
+
+# -- workers ---------------------------------------------------------------------------------------
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """With ``--dist loadgroup`` (pyproject's addopts): xdist's scheduler, but the tests that
+    read the shared five-minute run are one unit of work, handed to one worker first.
+
+    Every other test is a unit of its own (or of its ``xdist_group``), handed out as the
+    workers come free; the biggest unit goes first, so the five minutes start at once.
+    """
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadGroupScheduling
+
+    class SharedRunScheduling(LoadGroupScheduling):
+        """Load-group scheduling that also groups the shared run's readers (by their id)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            return scope_of(nodeid) or super()._split_scope(nodeid)
+
+    return SharedRunScheduling(config, log)

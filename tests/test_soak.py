@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from yard_run import YARD_GROUP
 
 from twig_ecs import Scene
 from twig_ecs.cli import main
 from twig_ecs.soak import Health, SoakLimits
 
 
-@pytest.mark.slow
-@pytest.mark.xdist_group(YARD_GROUP)
+@pytest.mark.slow  # reads the shared five-minute run
 def test_five_minutes_of_schoolyard_stay_within_the_soak_limits(yard_five_minutes):
     # `twig run schoolyard --seconds 300 --soak --report json` (with a trace and a plot, which
     # the story tests read), simulated once per session: tests/yard_run.py
