@@ -111,6 +111,17 @@ def yard_five_minutes(request, tmp_path_factory) -> YardRun:
 # -- workers ---------------------------------------------------------------------------------------
 
 
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``slow`` tests first, in their own order (a stable sort).
+
+    With workers the longest units start first and the many short ones fill in at the end,
+    so no worker is left finishing a long test while the other has nothing to do. It runs
+    after pytest's own ordering, which keeps the shared run's readers next to each other.
+    """
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 @pytest.hookimpl(optionalhook=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log):
     """With ``--dist loadgroup`` (pyproject's addopts): xdist's scheduler, but the tests that
