@@ -1,12 +1,70 @@
-"""Shared fixtures: scenes that are always closed, so no test sees another's world."""
+"""Shared fixtures: scenes that are always closed, so no test sees another's world; the
+kernels made ready once per session; and the five-minute schoolyard, simulated once.
+
+How to run the tests (the fast loop, the ``slow`` marker, the two workers): docs/testing.md.
+"""
 
 from __future__ import annotations
+
+import time
 
 import esper
 import numpy as np
 import pytest
+from yard_run import SEED, YARD_ID, YardRun, run_the_yard, scope_of
 
-from twig_ecs import Scene, Settings
+from twig_ecs import Scene, Settings, kernels
+
+# -- the kernels: compiled before the first test, not inside it --------------------------------------
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Compile the kernels into the cache before any test, when they are not there yet.
+
+    Runs once, in the process that starts the run (with ``-n 2``, before the workers start,
+    so they both find the cache full instead of compiling the same kernels side by side).
+    The time it took is a line of the summary, not a part of whichever test ran first.
+    """
+    if hasattr(session.config, "workerinput"):  # an xdist worker: the controller did this
+        return
+    started = time.perf_counter()
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    say = reporter.write_line if reporter is not None else None
+    build = kernels.prepare("schoolyard", say=say)
+    seconds = time.perf_counter() - started
+    if build is None:
+        line = f"kernels: found in the cache ({seconds:.1f} s to check)"
+        if kernels.jit_disabled():
+            line = "kernels: NUMBA_DISABLE_JIT=1, every kernel runs as plain Python"
+    else:
+        line = f"kernels: compiled {len(build.compiled)} before the tests in {seconds:.1f} s"
+        if build.errors:
+            line += f"; the build failed ({'; '.join(build.errors)}), each test compiles what it needs"
+    session.config.stash[_KERNEL_LINE] = line
+
+
+_KERNEL_LINE = pytest.StashKey[str]()
+
+
+def pytest_terminal_summary(terminalreporter, config: pytest.Config) -> None:
+    """Say how the kernels were made ready (compiled, or found in the cache)."""
+    line = config.stash.get(_KERNEL_LINE, None)
+    if line is not None:
+        terminalreporter.write_line(line)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def loaded_kernels() -> None:
+    """Load every kernel the schoolyard runs from the cache into this process, once.
+
+    The load (about half a second) is this fixture's setup, not a part of the first test
+    that happens to step a scene.
+    """
+    with Scene.load("schoolyard") as scene:
+        scene.step()
+
+
+# -- scenes -----------------------------------------------------------------------------------------
 
 
 @pytest.fixture
@@ -34,3 +92,52 @@ def zero_g_scene(scenes):
     scene = Scene(settings=Settings(gravity=np.zeros(3)))
     scenes.append(scene)
     return scene
+
+
+# -- the five-minute schoolyard ---------------------------------------------------------------------
+
+
+@pytest.fixture(scope="session", params=[pytest.param(SEED, id=YARD_ID)])
+def yard_five_minutes(request, tmp_path_factory) -> YardRun:
+    """Five minutes of the schoolyard (seed 0) run once for the whole session, through
+    ``twig run --soak --report json --trace --plot``: its report, trace and plot, read-only.
+
+    Its one parameter puts ``[yard-300s-seed0]`` in the id of every test that uses it, by
+    which :func:`pytest_xdist_make_scheduler` keeps those tests in one worker.
+    """
+    return run_the_yard(tmp_path_factory.mktemp("yard"), seed=request.param)
+
+
+# -- workers ---------------------------------------------------------------------------------------
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``slow`` tests first, in their own order (a stable sort).
+
+    With workers the longest units start first and the many short ones fill in at the end,
+    so no worker is left finishing a long test while the other has nothing to do. It runs
+    after pytest's own ordering, which keeps the shared run's readers next to each other.
+    """
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """With ``--dist loadgroup`` (pyproject's addopts): xdist's scheduler, but the tests that
+    read the shared five-minute run are one unit of work, handed to one worker first.
+
+    Every other test is a unit of its own (or of its ``xdist_group``), handed out as the
+    workers come free; the biggest unit goes first, so the five minutes start at once.
+    """
+    if config.getvalue("dist") != "loadgroup":
+        return None
+    from xdist.scheduler import LoadGroupScheduling
+
+    class SharedRunScheduling(LoadGroupScheduling):
+        """Load-group scheduling that also groups the shared run's readers (by their id)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            return scope_of(nodeid) or super()._split_scope(nodeid)
+
+    return SharedRunScheduling(config, log)

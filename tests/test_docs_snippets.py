@@ -36,6 +36,7 @@ def test_the_readme_and_the_guides_have_python_examples():
     assert {"README.md", "authoring-behaviours.md", "characters.md", "server.md"} <= names
 
 
+@pytest.mark.slow  # the README and server.md ones wait for hugs in real time
 @pytest.mark.parametrize("doc", DOCS_WITH_SNIPPETS, ids=lambda p: p.name)
 def test_python_snippets_run_as_written(doc, capsys):
     module = types.ModuleType("docs_snippet")  # a real module: dataclasses look their own up

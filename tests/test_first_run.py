@@ -30,6 +30,7 @@ def run_python(*args: str, env: dict | None = None, cwd: Path | None = None, tim
 # -- the kernel cache ---------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # compiles kernels in an empty cache
 def test_kernel_cache_is_keyed_by_version_not_install_path_and_shared(tmp_path):
     cache = tmp_path / "cache"
     build = run_python(
@@ -244,6 +245,7 @@ def test_a_run_begun_in_plain_python_ends_in_the_same_state_as_a_compiled_one():
     assert compiles == []  # nothing compiled in this process while the names were swapped
 
 
+@pytest.mark.slow  # compiles kernels in an empty cache
 def test_each_kernel_compiles_once_on_a_first_run(tmp_path):
     # a second specialisation is a second compile on every first run: resolve_contacts had one,
     # for a literal False. Two balls falling onto each other need the physics kernels, the

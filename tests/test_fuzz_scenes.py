@@ -14,6 +14,7 @@ import os
 import tempfile
 from pathlib import Path
 
+import pytest
 import yaml
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
@@ -86,6 +87,7 @@ def dump(doc) -> str:
     return yaml.safe_dump(doc, allow_unicode=True, sort_keys=False)
 
 
+@pytest.mark.slow  # 80 scenes loaded and stepped
 @FUZZ
 @given(documents)
 def test_random_scene_documents_load_or_raise_scene_error(doc):
@@ -125,6 +127,7 @@ def _paths(node, here=()):
             yield from _paths(v, (*here, i))
 
 
+@pytest.mark.slow  # 80 built-in scenes mutated, loaded and stepped
 @FUZZ
 @given(st.sampled_from(sorted(BUILTIN_SCENES)), st.data())
 def test_mutations_of_the_builtin_scenes_load_or_raise_scene_error(name, data):

@@ -225,6 +225,7 @@ def _expected_answers(obj) -> int:
     return 0 if _is_notification(obj) else 1
 
 
+@pytest.mark.slow  # 200 requests to a served schoolyard
 @FUZZ
 @given(lines)
 @example({"jsonrpc": "2.0", "id": math.inf, "method": "ping"})

@@ -10,6 +10,8 @@ import tomllib
 import zipfile
 from pathlib import Path
 
+import pytest
+
 import twig_ecs
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -24,6 +26,7 @@ def test_metadata_has_spdx_license_classifiers_and_one_version():
     assert any("platformdirs" in d for d in project["dependencies"])
 
 
+@pytest.mark.slow  # builds the sdist and the wheel in fresh environments
 def test_build_makes_an_sdist_with_docs_examples_benchmarks_tests_and_no_warning(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # not ours to warn of
     result = subprocess.run([sys.executable, "-m", "build", "--outdir", str(tmp_path), str(ROOT)],

@@ -1,35 +1,26 @@
 """The autonomous schoolyard (SPEC 5): five minutes from a fixed seed, as issue #6 asks.
 
-One headless five-minute run (about 20 s here) with its report and per-step trace; each
-test reads a different part of the story out of it.
+One headless five-minute run, shared with the soak test (tests/yard_run.py: simulated
+once per session), with its report and per-step trace; each test reads a different
+part of the story out of it.
 """
 
 from __future__ import annotations
 
-import csv
-
 import numpy as np
 import pytest
+from yard_run import FIVE_MINUTES
 
-from twig_ecs.report import run_with_report
-
-FIVE_MINUTES = 300.0
 AWAY = 5.0  # m from the parent: "beyond several metres"
 KICKS = 3  # ball touches by the two children in five minutes (seed 0 had 4, seed 1 39)
 HOME = 1.5  # m from the parent: at its side
 
 
-@pytest.fixture(scope="module")
-def story(tmp_path_factory):
-    """Five minutes of the schoolyard (seed 0), with its report, trace and plot."""
-    folder = tmp_path_factory.mktemp("yard")
-    trace = folder / "trace.csv"
-    plot = folder / "plot.png"
-    report = run_with_report("schoolyard", FIVE_MINUTES, seed=0, trace=trace, plot=plot)
-    with open(trace) as f:
-        everyone = list(csv.DictReader(f))
-    rows = [r for r in everyone if r["character"] == "small_child"]
-    return report, rows, plot, everyone
+@pytest.fixture
+def story(yard_five_minutes):
+    """Five minutes of the schoolyard (seed 0): report, small child's trace rows, plot, all rows."""
+    yard = yard_five_minutes
+    return yard.report, yard.small_child, yard.plot, yard.everyone
 
 
 def column(rows, name, kind=float):
@@ -55,6 +46,7 @@ def home_base_cycles(rows) -> int:
     return cycles
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_the_small_child_goes_round_the_safe_home_base_cycle_at_least_twice(story):
     report, rows, _, _ = story
     small = report["characters"]["small_child"]
@@ -66,6 +58,7 @@ def test_the_small_child_goes_round_the_safe_home_base_cycle_at_least_twice(stor
     assert small["time_per_behaviour"]["play"] > 60.0
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
     _, rows, _, _ = story
     anxiety, distance = column(rows, "anxiety"), column(rows, "caregiver_distance")
@@ -86,6 +79,7 @@ def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
     assert len(reached) >= 2 and all(anxiety[k] < 0.2 for k in reached)
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(story):
     report, _, plot, _ = story
     kids = report["characters"]
@@ -104,6 +98,7 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     assert plot.stat().st_size > 10_000
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_a_fight_is_followed_by_a_pain_withdrawal(story):
     report, _, _, everyone = story
     assert report["characters"]["big_child"]["fights"] >= 1
@@ -118,6 +113,7 @@ def test_a_fight_is_followed_by_a_pain_withdrawal(story):
     assert any(0.0 < t - f < 5.0 for t in flinching for f in fighting), "a blow of the fight made it flinch"
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_five_minutes_stay_physically_sound(story):
     report, _, _, _ = story
     assert report["nan"] is False
@@ -176,6 +172,7 @@ def _contact_figures_hold(report) -> None:
     assert figures["carried"]["ragdoll"]["max_pain_to_holder_j"] == 0.0
 
 
+@pytest.mark.slow  # reads the shared five-minute run
 def test_kicks_pushes_and_hugs_are_true_to_contact_and_the_ball_stays_in_the_yard(story):
     report, _, _, _ = story
     _contact_figures_hold(report)

@@ -42,6 +42,7 @@ def assert_restored_runs_on_alike(scene: Scene, scenes: list, seconds: float) ->
     return restored
 
 
+@pytest.mark.slow  # two minutes of schoolyard in all
 def test_snapshot_at_30s_then_restore_runs_to_the_same_state_as_straight_to_60s(scenes):
     straight = Scene.load("schoolyard", seed=0)
     halted = Scene.load("schoolyard", seed=0)
