@@ -37,7 +37,6 @@ import numpy as np
 
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
-from twig_ecs.systems.collide import closest_segment_params
 from twig_ecs.systems.hug import hands_on_back
 from twig_ecs.systems.play import yard_of
 
@@ -56,10 +55,35 @@ ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
         ("l_elbow", "l_hand", FOREARM_SHARE), ("r_elbow", "r_hand", FOREARM_SHARE))  # fmt: skip
 
 
-def segment_gap(p1, q1, r1: float, p2, q2, r2: float) -> float:
-    """Surface distance (m) between capsules p1q1 (radius r1) and p2q2 (r2); < 0 overlaps."""
-    s, t = closest_segment_params(p1, q1, p2, q2)
-    return float(np.linalg.norm((p1 + s * (q1 - p1)) - (p2 + t * (q2 - p2)))) - r1 - r2
+def segment_gaps(p1, q1, r1, p2, q2, r2) -> np.ndarray:
+    """Surface distances (m) between capsules p1q1 (radius r1) and p2q2 (r2), row by row;
+    < 0 overlaps. Arguments broadcast (points are (..., 3) arrays); the closest points
+    follow the contact solver's :func:`~twig_ecs.systems.collide.closest_segment_params`
+    (Ericson 5.1.9), here over whole arrays of pairs at once."""
+    p1, q1, p2, q2 = (np.asarray(v, dtype=np.float64) for v in (p1, q1, p2, q2))
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a = np.einsum("...i,...i->...", d1, d1)
+    e = np.einsum("...i,...i->...", d2, d2)
+    f = np.einsum("...i,...i->...", d2, r)
+    c = np.einsum("...i,...i->...", d1, r)
+    b = np.einsum("...i,...i->...", d1, d2)
+    eps = 1e-12
+    a_pos, e_pos = a > eps, e > eps
+    safe_a, safe_e = np.where(a_pos, a, 1.0), np.where(e_pos, e, 1.0)
+    denom = a * e - b * b
+    s = np.where(denom > eps, np.clip((b * f - c * e) / np.where(denom > eps, denom, 1.0), 0.0, 1.0), 0.0)
+    t = (b * s + f) / safe_e
+    s = np.where(
+        t < 0.0, np.clip(-c / safe_a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / safe_a, 0.0, 1.0), s)
+    )
+    t = np.clip(t, 0.0, 1.0)
+    # degenerate segments (points): the general formula's special cases
+    s = np.where(a_pos & ~e_pos, np.clip(-c / safe_a, 0.0, 1.0), s)
+    t = np.where(a_pos & ~e_pos, 0.0, t)
+    s = np.where(~a_pos, 0.0, s)
+    t = np.where(~a_pos & e_pos, np.clip(f / safe_e, 0.0, 1.0), np.where(~a_pos, 0.0, t))
+    closest = (p1 + s[..., None] * d1) - (p2 + t[..., None] * d2)
+    return np.linalg.norm(closest, axis=-1) - r1 - r2
 
 
 def point_segment_gaps(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -216,33 +240,35 @@ class InteractionRecorder:
     def _nearest_leg(self, chars, ball_row: int) -> tuple[float, str]:
         """Surface gap from the ball to the nearest thigh or shin of any character."""
         st = self.scene.state
-        centre, radius = st.nodes.pos[ball_row], float(st.nodes.radius[ball_row])
-        best, by = math.inf, ""
-        for me in chars:
-            if float(np.linalg.norm(me.position - centre)) > 2.0 * me.scale + 1.0:
-                continue  # far off: no need to look at its legs
-            a = np.array([me.node(u) for u, _ in LEGS])
-            b = np.array([me.node(v) for _, v in LEGS])
-            radii = np.array([0.07, 0.07, 0.05, 0.05]) * me.scale
-            gap = float((point_segment_gaps(centre, a, b) - radii).min()) - radius
-            if gap < best:
-                best, by = gap, me.name
-        return best, by
+        pos = st.nodes.pos
+        centre, radius = pos[ball_row], float(st.nodes.radius[ball_row])
+        # far off (beyond two body heights and a metre): no need to look at its legs
+        near = [me for me in chars if float(np.linalg.norm(me.position - centre)) <= 2.0 * me.scale + 1.0]
+        if not near:
+            return math.inf, ""
+        a = pos[[me._row(u) for me in near for u, _ in LEGS]]
+        b = pos[[me._row(v) for me in near for _, v in LEGS]]
+        radii = np.concatenate([np.array([0.07, 0.07, 0.05, 0.05]) * me.scale for me in near])
+        per_leg = point_segment_gaps(centre, a, b) - radii - radius
+        k = int(np.argmin(per_leg))  # the first of equals, as characters are listed
+        return float(per_leg[k]), near[k // len(LEGS)].name
 
     def _nearest_hand(self, chars, links: list[int]) -> tuple[float, str]:
         """Surface gap from the nearest hand of any character to the nearest collidable bar."""
+        if not chars:
+            return math.inf, ""
         st = self.scene.state
         lk, pos = st.links, st.nodes.pos
         a, b = pos[lk.a[links]], pos[lk.b[links]]
-        r = lk.radius[links]
-        best, by = math.inf, ""
-        for me in chars:
-            for hand in ("l_hand", "r_hand"):
-                p = me.node(hand)
-                gap = float((point_segment_gaps(p, a, b) - r).min()) - float(st.nodes.radius[me._row(hand)])
-                if gap < best:
-                    best, by = gap, me.name
-        return best, by
+        hands = np.array([me._row(hand) for me in chars for hand in ("l_hand", "r_hand")])
+        p = pos[hands]
+        ab = b - a
+        length2 = np.maximum(np.einsum("lk,lk->l", ab, ab), 1e-12)
+        t = np.clip(np.einsum("hlk,lk->hl", p[:, None] - a[None], ab) / length2, 0.0, 1.0)
+        gaps = np.linalg.norm(a[None] + t[..., None] * ab[None] - p[:, None], axis=2) - lk.radius[links][None]
+        per_hand = gaps.min(axis=1) - st.nodes.radius[hands]
+        k = int(np.argmin(per_hand))
+        return float(per_hand[k]), chars[k // 2].name
 
     def _measure_hugs(self, chars) -> None:
         scene = self.scene
@@ -303,16 +329,17 @@ class InteractionRecorder:
         """How deep ``me``'s arms (short of the hands) sink into ``other``'s colliders (m)."""
         st = self.scene.state
         lk, pos = st.links, st.nodes.pos
-        links = self._collidable_links(other.body.index)
-        deepest = 0.0
-        for u, v, share in ARMS:
-            p, q = me.node(u), me.node(v)
-            q = p + share * (q - p)
-            r = 0.045 * me.scale if share == 1.0 else 0.04 * me.scale
-            for j in links:
-                gap = segment_gap(p, q, r, pos[lk.a[j]], pos[lk.b[j]], float(lk.radius[j]))
-                deepest = max(deepest, -gap)
-        return deepest
+        links = np.asarray(self._collidable_links(other.body.index), dtype=np.int64)
+        if not len(links):
+            return 0.0
+        p = np.array([me.node(u) for u, _, _ in ARMS])
+        q = np.array([me.node(v) for _, v, _ in ARMS])
+        share = np.array([s for _, _, s in ARMS])
+        q = p + share[:, None] * (q - p)
+        r = np.where(share == 1.0, 0.045, 0.04) * me.scale
+        a, b = pos[lk.a[links]][None], pos[lk.b[links]][None]
+        gaps = segment_gaps(p[:, None], q[:, None], r[:, None], a, b, lk.radius[links][None])
+        return max(0.0, float(-gaps.min()))
 
     def _measure_carried(self, chars) -> None:
         scene = self.scene
@@ -371,17 +398,20 @@ class InteractionRecorder:
         ``body_b`` ending at one of the node rows ``hands`` (a holding hand) counts only
         its FOREARM_SHARE from the other end: the hand itself holds the thing."""
         lk, pos = self.scene.state.links, self.scene.state.nodes.pos
-        deepest = 0.0
-        for i in self._collidable_links(body_a):
-            for j in self._collidable_links(body_b):
-                p, q = pos[lk.a[j]], pos[lk.b[j]]
-                if int(lk.b[j]) in hands:
-                    q = p + FOREARM_SHARE * (q - p)
-                elif int(lk.a[j]) in hands:
-                    p = q + FOREARM_SHARE * (p - q)
-                gap = segment_gap(pos[lk.a[i]], pos[lk.b[i]], float(lk.radius[i]), p, q, float(lk.radius[j]))
-                deepest = max(deepest, -gap)
-        return deepest
+        mine = np.asarray(self._collidable_links(body_a), dtype=np.int64)
+        theirs = np.asarray(self._collidable_links(body_b), dtype=np.int64)
+        if not len(mine) or not len(theirs):
+            return 0.0
+        p, q = pos[lk.a[theirs]].copy(), pos[lk.b[theirs]].copy()
+        into = np.isin(lk.b[theirs], hands)  # the link ends at a holding hand: count it short of the hand
+        p_into, q_into = p[into], q[into]
+        q[into] = p_into + FOREARM_SHARE * (q_into - p_into)
+        out = ~into & np.isin(lk.a[theirs], hands)
+        p_out, q_out = p[out], q[out]
+        p[out] = q_out + FOREARM_SHARE * (p_out - q_out)
+        gaps = segment_gaps(pos[lk.a[mine]][:, None], pos[lk.b[mine]][:, None], lk.radius[mine][:, None],
+                            p[None], q[None], lk.radius[theirs][None])  # fmt: skip
+        return max(0.0, float(-gaps.min()))
 
     def report(self) -> dict:
         """The interaction figures, JSON-ready."""
