@@ -208,12 +208,14 @@ def _steering_grid(scene) -> tuple:
     return grid
 
 
-def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
+def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray | None = None) -> np.ndarray:
     """The nearest node of every other body within ``cutoff`` (ground plane), as points;
-    for a wide body, the nearest point of the disc it covers."""
+    for a wide body, the nearest point of the disc it covers. ``here``: the character's
+    position when the caller has it already."""
     scene = character.scene
     state = scene.state
-    here = character.position
+    if here is None:
+        here = character.position
     names = scene._names  # membership only: entity_names copies the list
     # what it carries is no obstacle, and neither is what the target carries
     exclude = set(exclude) | set(character.holding.values())
@@ -247,9 +249,10 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     # the nearest node of each other body that stands higher than a step: things lying
     # low on the ground (a dropped doll, a ball) are stepped over or kicked
     start, entries, best, scratch, out = _steering_grid(scene)
+    skip_rows = np.array(sorted(skip), dtype=np.int64)
     count = nearest_obstacle_nodes(state.nodes.pos, state.nodes.body, state.nodes.count, start, entries,
                                    STEER_CELL, float(here[0]), float(here[2]), float(cutoff), STEP_OVER,
-                                   blocked, np.array(sorted(skip), dtype=np.int64), best, scratch, out)  # fmt: skip
+                                   blocked, skip_rows, best, scratch, out)  # fmt: skip
     nodes = state.nodes.pos[out[:count]]
     if points:
         return np.concatenate([np.array(points), nodes]) if count else np.array(points)
@@ -287,7 +290,7 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         return False
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
     params = SteeringParams(curl=curl) if speed is None else SteeringParams(curl=curl, speed=speed)
-    obstacles = obstacles_near(character, ignore, params.cutoff)
+    obstacles = obstacles_near(character, ignore, params.cutoff, here)
     walk = approach_velocity(here, aim, obstacles, params)
     if isinstance(target, str):
         # pursuit: match a moving target's pace on top of closing in, or one that walks

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene
+from twig_ecs.bench import cases
 from twig_ecs.systems.approach import STEP_OVER, obstacles_near
 
 
@@ -96,3 +97,20 @@ def test_a_hundred_approachers_all_arrive():
         for a, b in pairs:
             gap = np.hypot(*(a.position - b.position)[[0, 2]])
             assert 0.3 < gap < 0.6 + 0.3, (a.name, gap)  # met at about the stop distance, not through
+
+
+def test_the_approach_bench_case_steps_the_same_timed_and_untimed():
+    """``twig bench``'s approach case: spawned characters, each approaching another; timing its
+    steps (``step_timed``, as the bench does) computes the same world as plain steps."""
+    with cases.approach_crowd(8) as timed, cases.approach_crowd(8) as plain:
+        for k in range(8):
+            goals = timed.entity(f"c{k}").goals
+            assert [g.behavior for g in goals] == ["approach"] and goals[0].params["target"] != f"c{k}"
+        times: dict[str, list[float]] = {}
+        for _ in range(40):
+            timed.step_timed(times)
+        plain.step(40)
+        assert len(times["select_behavior"]) == 40
+        assert timed.state_hash() == plain.state_hash()
+        moved = np.hypot(*(plain.entity("c0").position - np.array([0.0, 0.0, 0.0]))[[0, 2]])
+        assert moved > 0.2  # they are walking, so the hashes compare a moving crowd

@@ -42,11 +42,11 @@ def approach_crowd(count: int) -> Scene:
     scene = Scene.load("empty")
     side = math.ceil(math.sqrt(count))
     rng = np.random.default_rng(2)
-    people = [
-        scene.spawn("humanoid", name=f"c{k}", position=((k % side) * 2.0, 0.0, (k // side) * 2.0),
-                    facing=float(rng.uniform(0, 360)), character=True)  # fmt: skip
-        for k in range(count)
-    ]
+    people = []
+    for k in range(count):
+        where = ((k % side) * 2.0, 0.0, (k // side) * 2.0)
+        facing = float(rng.uniform(0, 360))
+        people.append(scene.spawn("humanoid", name=f"c{k}", position=where, facing=facing, character=True))
     if count > 1:
         for k, person in enumerate(people):
             person.approach(people[(k + int(rng.integers(1, count))) % count].name)
