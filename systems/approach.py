@@ -9,14 +9,17 @@ drag use :func:`steer_to` for their own approach phases.
 
 from __future__ import annotations
 
+import math
 import weakref
 
 import numpy as np
+from numba import njit
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
+from twig_ecs.systems.collide import _cell_hash
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
@@ -34,9 +37,10 @@ def target_point(character, target) -> np.ndarray:
 _FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
+def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict, np.ndarray]:
     """Each body's ground centre (x, z), squared spread, whether it is WIDE, and, for a
-    static body (every node locked: a fence, a wall), its collidable links; computed
+    static body (every node locked: a fence, a wall), its collidable links, and which
+    bodies are either (steered round by their shape, not their nearest node); computed
     once per step however many characters steer (kept aside, not in the scene's state)."""
     cached = _FOOTPRINTS.get(scene)
     if cached is not None and cached[0] == scene.frame:
@@ -56,7 +60,10 @@ def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, 
     walls = {
         int(b): np.flatnonzero(collide & (links.body[: links.count] == b)) for b in np.flatnonzero(static)
     }
-    result = (cx, cz, spread, (np.sqrt(spread) > WIDE) & ~static, walls)
+    wide = (np.sqrt(spread) > WIDE) & ~static
+    # bodies steered round as discs or walls, not by their nearest node
+    blocked = wide | static
+    result = (cx, cz, spread, wide, walls, blocked)
     _FOOTPRINTS[scene] = (scene.frame, result)
     return result
 
@@ -74,27 +81,154 @@ def _nearest_on_links(state, rows: np.ndarray, here: np.ndarray) -> tuple[np.nda
     return points[k] + np.array([0.0, here[1], 0.0]), float(d[k])
 
 
-def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
+#: Edge (m) of the ground grid steering finds obstacles in: above the usual cut-off
+#: (1.8 m), so a character's disc spans at most 2 x 2 cells.
+STEER_CELL = 2.0
+#: A disc spanning more cells than this (a cut-off much longer than the cell) scans every node.
+MAX_CELLS = 16
+
+
+@njit(cache=True, inline="always")
+def _ground_bucket(x, z, cell, mask):
+    """The hash bucket of the ground cell holding (x, z); a lost (non-finite) node goes in bucket 0."""
+    if not (math.isfinite(x) and math.isfinite(z)):
+        return 0
+    return _cell_hash(int(math.floor(x / cell)), 0, int(math.floor(z / cell)), mask)
+
+
+@njit(cache=True)
+def ground_grid(pos, n, cell, start, entries):
+    """Bin the first ``n`` nodes by their ground cell (x, z) in a spatial hash.
+
+    ``start`` is a power of two plus one long: bucket h holds the node rows
+    ``entries[start[h]:start[h + 1]]``, in ascending order. Built once per step and
+    shared by every character that steers (:func:`nearest_obstacle_nodes`).
+    """
+    mask = len(start) - 2
+    start[:] = 0
+    for i in range(n):
+        h = _ground_bucket(pos[i, 0], pos[i, 2], cell, mask)
+        start[h + 1] += 1
+    for h in range(mask + 1):
+        start[h + 1] += start[h]
+    fill = start[:-1].copy()
+    for i in range(n):
+        h = _ground_bucket(pos[i, 0], pos[i, 2], cell, mask)
+        entries[fill[h]] = i
+        fill[h] += 1
+
+
+@njit(cache=True)
+def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, step_over, blocked, skip,
+                           best, scratch, out):  # fmt: skip
+    """The nearest node of every body within ``cutoff`` of (x, z) on the ground that stands
+    higher than ``step_over``, into ``out``; returns how many.
+
+    Bodies flagged in ``blocked`` (steered round another way) and those in ``skip`` are
+    left out. The candidates come from the grid cells the disc touches, visited in
+    ascending node order, so the result - which node wins a tie, and the order of the
+    bodies (by their first node in reach) - is the same as scanning every node.
+    ``best`` (one slot per body) must hold -1 and is left so; ``scratch`` holds ``n``.
+    """
+    mask = len(start) - 2
+    lo_x, hi_x = int(math.floor((x - cutoff) / cell)), int(math.floor((x + cutoff) / cell))
+    lo_z, hi_z = int(math.floor((z - cutoff) / cell)), int(math.floor((z + cutoff) / cell))
+    m = 0
+    if (hi_x - lo_x + 1) * (hi_z - lo_z + 1) > MAX_CELLS or not (math.isfinite(x) and math.isfinite(z)):
+        for i in range(n):
+            scratch[i] = i
+        m = n
+    else:
+        buckets = np.empty(MAX_CELLS, dtype=np.int64)
+        nb = 0
+        for ix in range(lo_x, hi_x + 1):
+            for iz in range(lo_z, hi_z + 1):
+                h = _cell_hash(ix, 0, iz, mask)
+                seen = False
+                for k in range(nb):  # two cells can share a bucket: take its nodes once
+                    if buckets[k] == h:
+                        seen = True
+                if seen:
+                    continue
+                buckets[nb] = h
+                nb += 1
+                for e in range(start[h], start[h + 1]):
+                    scratch[m] = entries[e]
+                    m += 1
+        scratch[:m].sort()
+    reach = cutoff**2
+    count = 0
+    for c in range(m):
+        i = scratch[c]
+        d2 = (pos[i, 0] - x) ** 2 + (pos[i, 2] - z) ** 2
+        if not d2 < reach:
+            continue
+        b = body[i]
+        if blocked[b] or pos[i, 1] <= step_over:
+            continue
+        skipped = False
+        for k in range(len(skip)):
+            if skip[k] == b:
+                skipped = True
+        if skipped:
+            continue
+        j = best[b]
+        if j < 0:
+            best[b] = i
+            out[count] = b
+            count += 1
+        elif d2 < (pos[j, 0] - x) ** 2 + (pos[j, 2] - z) ** 2:
+            best[b] = i
+    for k in range(count):  # bodies to their nearest nodes; the slots back to -1
+        b = out[k]
+        out[k] = best[b]
+        best[b] = -1
+    return count
+
+
+_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _steering_grid(scene) -> tuple:
+    """This step's ground grid of the nodes and the scratch arrays of a query (built on the
+    first call of a step, shared by every character; nodes stand still from the collide
+    pass until gait, which is when behaviours steer)."""
+    state = scene.state
+    n = state.nodes.count
+    cached = _GRIDS.get(scene)
+    if cached is not None and cached[0] == (scene.frame, n, state.bodies.count):
+        return cached[1]
+    size = 1 << max(4, int(2 * n - 1).bit_length())  # >= 2 x nodes, a power of two
+    start = np.empty(size + 1, dtype=np.int64)
+    entries = np.empty(max(n, 1), dtype=np.int64)
+    ground_grid(state.nodes.pos, n, STEER_CELL, start, entries)
+    best = np.full(state.bodies.count, -1, dtype=np.int64)
+    grid = (start, entries, best, np.empty(max(n, 1), dtype=np.int64), np.empty(max(n, 1), dtype=np.int64))
+    _GRIDS[scene] = ((scene.frame, n, state.bodies.count), grid)
+    return grid
+
+
+def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray | None = None) -> np.ndarray:
     """The nearest node of every other body within ``cutoff`` (ground plane), as points;
-    for a wide body, the nearest point of the disc it covers."""
+    for a wide body, the nearest point of the disc it covers. ``here``: the character's
+    position when the caller has it already."""
     scene = character.scene
     state = scene.state
-    here = character.position
-    pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
-    d2 = (pos[:, 0] - here[0]) ** 2 + (pos[:, 2] - here[2]) ** 2
-    near = np.flatnonzero(d2 < cutoff**2)
+    if here is None:
+        here = character.position
+    names = scene._names  # membership only: entity_names copies the list
     # what it carries is no obstacle, and neither is what the target carries
     exclude = set(exclude) | set(character.holding.values())
     for name in list(exclude):
-        other = scene.entity(name) if name in scene.entity_names else None
+        other = scene.entity(name) if name in names else None
         if other is not None and hasattr(other, "holding"):
             exclude |= set(other.holding.values())
-    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in scene.entity_names}
+    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in names}
     points = []
     # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
     # its nearest node can be a metre from the bar one would walk into, and stepping
     # across a turning deck catches the legs in its bars
-    cx, cz, spread, wide, walls = _footprints(scene)
+    cx, cz, spread, wide, walls, blocked = _footprints(scene)
     # a fence or wall is long and thin: its nearest point, not a disc round its middle
     for b, rows in walls.items():
         if b in skip or np.hypot(here[0] - cx[b], here[2] - cz[b]) - np.sqrt(spread[b]) > cutoff:
@@ -114,15 +248,15 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
             points.append(np.array([cx[b], here[1], cz[b]]) + rim)
     # the nearest node of each other body that stands higher than a step: things lying
     # low on the ground (a dropped doll, a ball) are stepped over or kicked
-    best: dict[int, int] = {}
-    for i in near:
-        b = int(body[i])
-        if b in skip or wide[b] or b in walls or pos[i, 1] <= STEP_OVER:
-            continue
-        if b not in best or d2[i] < d2[best[b]]:
-            best[b] = int(i)
-    points += [pos[i] for i in best.values()]
-    return np.array(points) if points else np.zeros((0, 3))
+    start, entries, best, scratch, out = _steering_grid(scene)
+    skip_rows = np.array(sorted(skip), dtype=np.int64)
+    count = nearest_obstacle_nodes(state.nodes.pos, state.nodes.body, state.nodes.count, start, entries,
+                                   STEER_CELL, float(here[0]), float(here[2]), float(cutoff), STEP_OVER,
+                                   blocked, skip_rows, best, scratch, out)  # fmt: skip
+    nodes = state.nodes.pos[out[:count]]
+    if points:
+        return np.concatenate([np.array(points), nodes]) if count else np.array(points)
+    return nodes if count else np.zeros((0, 3))
 
 
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,
@@ -156,7 +290,7 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         return False
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
     params = SteeringParams(curl=curl) if speed is None else SteeringParams(curl=curl, speed=speed)
-    obstacles = obstacles_near(character, ignore, params.cutoff)
+    obstacles = obstacles_near(character, ignore, params.cutoff, here)
     walk = approach_velocity(here, aim, obstacles, params)
     if isinstance(target, str):
         # pursuit: match a moving target's pace on top of closing in, or one that walks

@@ -9,7 +9,7 @@ from collections.abc import Callable
 
 from twig_ecs.bench import cases, mujoco_ragdolls, timing
 
-CASES = ("schoolyard", "crowd", "ragdolls")
+CASES = ("schoolyard", "crowd", "approach", "ragdolls")
 SIZES = (10, 100, 1000)
 
 
@@ -46,6 +46,8 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
     for size in sizes:
         if "crowd" in which:
             jobs.append(("crowd", size, lambda n=size: cases.crowd(n)))
+        if "approach" in which:
+            jobs.append(("approach", size, lambda n=size: cases.approach_crowd(n)))
         if "ragdolls" in which:
             jobs.append(("ragdolls", size, lambda n=size: cases.ragdoll_pile(n)))
     if mujoco and not mujoco_ragdolls.available():
