@@ -294,7 +294,8 @@ def test_a_cached_start_links_kernels_without_numbas_compiler_set_up_and_compile
         "    items = numba.typed.List(); items.append(1.5); return np.ones(n).sum() + items[0]\n"
         "print(later(3))\n"
     )
-    Scene.load("schoolyard").step()  # the kernels are in the cache (the session compiled them)
+    with Scene.load("schoolyard") as scene:  # the kernels are in the cache (the session compiled them)
+        scene.step()
     result = run_python("-c", probe)
     assert result.returncode == 0, result.stderr
     first, second = result.stdout.splitlines()
