@@ -271,6 +271,38 @@ def test_each_kernel_compiles_once_on_a_first_run(tmp_path):
     assert {name: n for name, n in seen.items() if n != 1} == {}
 
 
+def test_a_cached_start_links_kernels_without_numbas_compiler_set_up_and_compiles_after():
+    # numba's cache load first imports and registers everything its compiler knows (~0.2 s of
+    # a 1 s start); ours links cached kernels with the runtime only. A kernel compiled later in
+    # the same process (a plug-in's, a new signature) must still get the full set-up.
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there are no compiled kernels to load")
+    compile_only = ("numba.typed.typedlist", "numba.np.polynomial.polynomial_core",
+                    "numba.experimental.jitclass.base", "numba.np.random.generator_methods")  # fmt: skip
+    probe = (
+        "import sys; from numba.core import event; from twig_ecs import Scene\n"
+        "seen = []\n"
+        "class L(event.Listener):\n"
+        "    def on_start(self, ev): seen.append(ev.data['dispatcher'].py_func.__qualname__)\n"
+        "    def on_end(self, ev): pass\n"
+        "event.register('numba:compile', L())\n"
+        "with Scene.load('schoolyard') as s: s.step(3)\n"
+        f"print([m for m in {compile_only!r} if m in sys.modules], seen)\n"
+        "import numba, numpy as np\n"
+        "@numba.njit\n"
+        "def later(n):\n"
+        "    items = numba.typed.List(); items.append(1.5); return np.ones(n).sum() + items[0]\n"
+        "print(later(3))\n"
+    )
+    with Scene.load("schoolyard") as scene:  # the kernels are in the cache (the session compiled them)
+        scene.step()
+    result = run_python("-c", probe)
+    assert result.returncode == 0, result.stderr
+    first, second = result.stdout.splitlines()
+    assert first == "[] []"  # no compiler modules imported, nothing compiled: only linked
+    assert float(second) == 4.5  # compiling afterwards works (typed lists need the full set-up)
+
+
 def test_serve_window_status_line_shows_server_steps_and_wall_clock_fps():
     window_class = _window_class(load_pyglet_window(headless=True))
     from twig_ecs.graphics.app import Viewer

@@ -168,6 +168,37 @@ def _install_locator() -> None:
     impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.6x
     if KernelCacheLocator not in impl._locator_classes:
         impl._locator_classes.insert(0, KernelCacheLocator)
+    _install_light_loads(caching.Cache)
+
+
+def _install_light_loads(cache_class) -> None:
+    """Load our cached kernels without numba's compiler set-up (a cached start's largest cost).
+
+    Numba's ``Cache.load_overload`` first refreshes the target context: it imports and
+    registers every typing and lowering implementation numba has (linalg, random, typed
+    containers, jitclass, ...), about 0.2 s of a 1 s cached start, all of it needed to
+    *compile* a kernel and none of it to link a cached one. For kernels filed by
+    :class:`KernelCacheLocator` this loads with only the runtime (NRT) initialised, which
+    the cached machine code links against. A miss (no entry for the signature) falls
+    through to numba's compile, which does the full refresh itself, so nothing compiles
+    with a partial context.
+    """
+    full = cache_class.load_overload
+    if getattr(full, "twig_light", False):
+        return
+
+    def load_overload(self, sig, target_context):
+        if not isinstance(getattr(self._impl, "locator", None), KernelCacheLocator):
+            return full(self, sig, target_context)
+        from numba.core.runtime import rtsys
+
+        rtsys.initialize(target_context)  # the runtime the cached code calls (allocation, refcounts)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload.twig_light = True
+    load_overload.__doc__ = full.__doc__
+    cache_class.load_overload = load_overload
 
 
 def _locator_base():

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import asyncio
 import ipaddress
 import os
 import signal
@@ -11,7 +10,7 @@ import sys
 from collections.abc import Callable
 
 from twig_ecs.errors import TwigError
-from twig_ecs.server.core import DEFAULT_PORT, DEFAULT_TWIG_PORT
+from twig_ecs.server.ports import DEFAULT_PORT, DEFAULT_TWIG_PORT  # not .core: asyncio, for every command
 
 #: Environment variable a token can come from (kept out of ``ps`` listings).
 TOKEN_ENV = "TWIG_TOKEN"
@@ -151,10 +150,14 @@ def cmd_serve(args: argparse.Namespace) -> int:
     except BaseException:
         (window or scene).close()
         raise
+    import asyncio
+
     return asyncio.run(_serve(server))
 
 
 async def _serve(server) -> int:
+    import asyncio
+
     loop = asyncio.get_running_loop()
     try:
         await server.start()

@@ -30,14 +30,12 @@ from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
 from twig_ecs.scene import Scene
 from twig_ecs.server import protocol as rpc
+from twig_ecs.server.ports import DEFAULT_PORT, DEFAULT_TWIG_PORT  # noqa: F401 - their old home
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.server.session import Command, JsonSession, Session
 from twig_ecs.server.twigline import TwigSession
 from twig_ecs.trust import trusting
 
-#: Default ports: JSON-RPC, and the Twig line protocol when it is switched on.
-DEFAULT_PORT = 7470
-DEFAULT_TWIG_PORT = 10001
 #: Frames between the checkpoints a failed step is rolled back from (and after every command).
 CHECKPOINT_EVERY = 120
 #: Seconds a client of a server with a token has to authenticate before it is disconnected.
