@@ -6,6 +6,7 @@ How to run the tests (the fast loop, the ``slow`` marker, the two workers): docs
 
 from __future__ import annotations
 
+import os
 import time
 
 import esper
@@ -14,6 +15,12 @@ import pytest
 from yard_run import SEED, YARD_ID, YardRun, run_the_yard, scope_of
 
 from twig_ecs import Scene, Settings, kernels
+
+# The tests start many Python processes (the CLI, servers, fresh-process probes). Where the
+# environment says PYTHONDONTWRITEBYTECODE (some containers and CI images do), each of them
+# would compile every twig-ecs module from source again; a user's installed twig does not.
+# Let the workers and those processes write and reuse bytecode, as a user's would.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 # -- the kernels: compiled before the first test, not inside it --------------------------------------
 

@@ -78,6 +78,7 @@ def test_excluded_bodies_are_no_obstacles():
         assert len(without) == len(everyone) - int(any((p2_points == q).all(axis=1).any() for q in everyone))
 
 
+@pytest.mark.slow  # about 7 s: started early, with the other long units (docs/testing.md)
 def test_a_hundred_approachers_all_arrive():
     """50 pairs, rows 2 m apart (the crowd bench's spacing), walk towards each other past the
     neighbouring rows; every goal succeeds and each pair stops about the stop distance apart."""
