@@ -216,14 +216,13 @@ def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray
     state = scene.state
     if here is None:
         here = character.position
-    names = scene._names  # membership only: entity_names copies the list
     # what it carries is no obstacle, and neither is what the target carries
     exclude = set(exclude) | set(character.holding.values())
     for name in list(exclude):
-        other = scene.entity(name) if name in names else None
+        other = scene.entity(name) if scene.has_entity(name) else None
         if other is not None and hasattr(other, "holding"):
             exclude |= set(other.holding.values())
-    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if n in names}
+    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if scene.has_entity(n)}
     points = []
     # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
     # its nearest node can be a metre from the bar one would walk into, and stepping

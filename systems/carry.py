@@ -159,7 +159,7 @@ class Cradle(Behavior):
 
 def _loose(scene, name: str) -> bool:
     """Is ``name`` a thing a hand carries about: not a character, no node fixed in place."""
-    if name not in scene.entity_names:
+    if not scene.has_entity(name):
         return False
     thing = scene.entity(name)
     if hasattr(thing, "holding"):

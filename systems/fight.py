@@ -37,7 +37,7 @@ class Fight(Behavior):
         for entity, (_, feisty) in esper.get_components(Character, Feisty):
             last = esper.try_component(entity, LastFight)
             cooling = last is not None and scene.time - last.at < COOLDOWN
-            if feisty.rival not in scene.entity_names or cooling:
+            if not scene.has_entity(feisty.rival) or cooling:
                 continue
             me = scene.character_handle(entity)
             if me.goals or not me.autonomous:

@@ -70,7 +70,7 @@ class Play(Behavior):
     def activation(self, character, mind: Mind, goal) -> float:
         """Joy, less the anxiety of an attached child."""
         playful = self.settings(character)
-        if playful.toy not in self.scene.entity_names:
+        if not self.scene.has_entity(playful.toy):
             return 0.0
         attachment = esper.try_component(character.entity, Attachment)
         anxiety = attachment.anxiety if attachment is not None else 0.0

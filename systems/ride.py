@@ -41,7 +41,7 @@ class Ride(Behavior):
         """Maybe get the urge; then propose."""
         scene = self.scene
         for entity, (_, rider) in esper.get_components(Character, Rider):
-            if not esper.has_component(entity, Spin) and rider.ride in scene.entity_names:
+            if not esper.has_component(entity, Spin) and scene.has_entity(rider.ride):
                 if scene.rng.random() < rider.whim * dt:
                     esper.add_component(entity, Spin(since=scene.time))
         super().process(dt)

@@ -63,6 +63,7 @@ def test_removing_a_body_keeps_the_others_intact(empty_scene):
     rest_before = scene.state.links.rest[: scene.state.links.count].copy()
     scene.remove("h1")
     assert scene.entity_names == ["h0", "h2"]
+    assert scene.has_entity("h0") and not scene.has_entity("h1") and not scene.has_entity("nobody")
     for name, pos in keep.items():
         np.testing.assert_array_equal(scene.entity(name).node_positions, pos)
     # every remaining link still joins nodes at its rest length

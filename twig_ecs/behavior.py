@@ -246,7 +246,7 @@ def goal_targets(scene, behavior: str) -> dict[int, tuple[int, Goal]]:
         if goal is None or goal.behavior != behavior:
             continue
         target = goal.params.get("target")
-        if target in scene.entity_names:
+        if scene.has_entity(target):
             out[scene.entity(target).entity] = (entity, goal)
     return out
 

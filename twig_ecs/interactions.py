@@ -275,7 +275,7 @@ class InteractionRecorder:
         pains = [e for e in scene.events if e.kind == "pain"]
         for me in chars:
             goal = next((g for g in me.goals if g.behavior == "hug"), None)
-            if goal is None or goal.params["target"] not in scene.entity_names:
+            if goal is None or not scene.has_entity(goal.params["target"]):
                 continue
             partner = scene.entity(goal.params["target"])
             figures = self.hugs.setdefault((me.name, partner.name), _Hug())
@@ -307,7 +307,7 @@ class InteractionRecorder:
             for pair, figures in self.fights.items():
                 if pair[0] == me.name and pair != key:
                     figures.start = None  # that fight is over: the next one starts afresh
-            if goal is None or "fighting" not in goal.memory or key[1] not in scene.entity_names:
+            if goal is None or "fighting" not in goal.memory or not scene.has_entity(key[1]):
                 continue
             other = scene.entity(key[1])
             figures = self.fights.setdefault(key, _Fight())
@@ -346,7 +346,7 @@ class InteractionRecorder:
         now = scene.time
         pains = [e for e in scene.events if e.kind == "pain"]
         for me in chars:
-            held = {n for n in me.holding.values() if n in scene.entity_names}
+            held = {n for n in me.holding.values() if scene.has_entity(n)}
             # a carried thing: not a hugged partner, nor a fixed thing held on to (a ride's bar)
             things = {n for n in held if not hasattr(scene.entity(n), "holding") and not self._anchored(n)}
             for gone in self._held_before.get(me.name, set()) - things:

@@ -72,7 +72,7 @@ class StoryRecorder:
                 self.held_steps[me.name][held] += 1
             attachment = esper.try_component(entity, Attachment)
             distance = anxiety = math.nan
-            if attachment is not None and attachment.caregiver in scene.entity_names:
+            if attachment is not None and scene.has_entity(attachment.caregiver):
                 distance = ground_distance(me.position, scene.entity(attachment.caregiver).position)
                 self.max_distance[me.name] = max(self.max_distance[me.name], distance)
                 anxiety = attachment.anxiety

@@ -403,8 +403,12 @@ class Scene:
 
     @property
     def entity_names(self) -> list[str]:
-        """Names of all named entities, in spawn order."""
+        """Names of all named entities, in spawn order (a new list: see :meth:`has_entity`)."""
         return list(self._names)
+
+    def has_entity(self, name: str) -> bool:
+        """Is there an entity named ``name``? (A lookup, not a copy of every name.)"""
+        return name in self._names
 
     def name_of(self, entity: int) -> str | None:
         """The name of an entity (a body; None for a grab joint or an unknown entity)."""

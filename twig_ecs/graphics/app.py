@@ -173,7 +173,7 @@ class Viewer:
         turn = (key.E in self.keys_down) - (key.Q in self.keys_down)
         if turn:
             self.camera.orbit(turn * TURN_SPEED * elapsed, 0.0)
-        if self.follow and self.selected in self.scene.entity_names:
+        if self.follow and self.scene.has_entity(self.selected):
             self.camera.follow(self.scene.entity(self.selected).position, max(elapsed, 1e-3))
 
     # -- characters -------------------------------------------------------------------

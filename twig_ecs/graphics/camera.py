@@ -226,7 +226,7 @@ class CameraSpec:
         cam = OrbitCamera(np.zeros(3), yaw=self.yaw, pitch=self.pitch)
         points = scene_points(scene.state)
         if self.mode == "follow":
-            if self.name not in scene.entity_names:
+            if not scene.has_entity(self.name):
                 names = ", ".join(scene.entity_names) or "none"
                 raise CameraError(f"camera follow:{self.name}: no entity of that name (entities: {names})")
             cam.target = scene.entity(self.name).position

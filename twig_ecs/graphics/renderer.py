@@ -168,7 +168,7 @@ def attention_lines(scene, pos: np.ndarray) -> np.ndarray:
     scene.activate()
     starts, ends = [], []
     for entity, memory in esper.get_component(Memory):
-        if memory.focus is None or memory.focus not in scene.entity_names:
+        if memory.focus is None or not scene.has_entity(memory.focus):
             continue
         me, it = scene.entity(scene.name_of(entity)), scene.entity(memory.focus)
         starts.append(pos[me.body.node_index("head")])
