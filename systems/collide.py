@@ -270,6 +270,22 @@ def closest_segment_params(p1, q1, p2, q2):
     return s, t
 
 
+@njit(cache=True)
+def capsule_gaps(pa, qa, ra, pb, qb, rb):
+    """Surface distances (m) between every capsule a (rows of pa, qa, ra) and every capsule
+    b (pb, qb, rb), an (a, b) table; < 0 overlaps. The contact solver's closest points, for
+    measuring how deep one body sinks into another."""
+    out = np.empty((pa.shape[0], pb.shape[0]))
+    for i in range(pa.shape[0]):
+        for j in range(pb.shape[0]):
+            s, t = closest_segment_params(pa[i], qa[i], pb[j], qb[j])
+            dx = (pa[i, 0] + s * (qa[i, 0] - pa[i, 0])) - (pb[j, 0] + t * (qb[j, 0] - pb[j, 0]))
+            dy = (pa[i, 1] + s * (qa[i, 1] - pa[i, 1])) - (pb[j, 1] + t * (qb[j, 1] - pb[j, 1]))
+            dz = (pa[i, 2] + s * (qa[i, 2] - pa[i, 2])) - (pb[j, 2] + t * (qb[j, 2] - pb[j, 2]))
+            out[i, j] = math.sqrt(dx * dx + dy * dy + dz * dz) - ra[i] - rb[j]
+    return out
+
+
 @njit(cache=True, inline="always")
 def _felt_weight(inv_mass, flags, i):
     """Inverse mass for impact energy: 0 only when locked (a moving node has its mass)."""

@@ -37,6 +37,7 @@ import numpy as np
 
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
+from twig_ecs.systems.collide import capsule_gaps
 from twig_ecs.systems.hug import hands_on_back
 from twig_ecs.systems.play import yard_of
 
@@ -53,37 +54,6 @@ FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) h
 LEGS = (("l_hip", "l_knee"), ("r_hip", "r_knee"), ("l_knee", "l_foot"), ("r_knee", "r_foot"))
 ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
         ("l_elbow", "l_hand", FOREARM_SHARE), ("r_elbow", "r_hand", FOREARM_SHARE))  # fmt: skip
-
-
-def segment_gaps(p1, q1, r1, p2, q2, r2) -> np.ndarray:
-    """Surface distances (m) between capsules p1q1 (radius r1) and p2q2 (r2), row by row;
-    < 0 overlaps. Arguments broadcast (points are (..., 3) arrays); the closest points
-    follow the contact solver's :func:`~twig_ecs.systems.collide.closest_segment_params`
-    (Ericson 5.1.9), here over whole arrays of pairs at once."""
-    p1, q1, p2, q2 = (np.asarray(v, dtype=np.float64) for v in (p1, q1, p2, q2))
-    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
-    a = np.einsum("...i,...i->...", d1, d1)
-    e = np.einsum("...i,...i->...", d2, d2)
-    f = np.einsum("...i,...i->...", d2, r)
-    c = np.einsum("...i,...i->...", d1, r)
-    b = np.einsum("...i,...i->...", d1, d2)
-    eps = 1e-12
-    a_pos, e_pos = a > eps, e > eps
-    safe_a, safe_e = np.where(a_pos, a, 1.0), np.where(e_pos, e, 1.0)
-    denom = a * e - b * b
-    s = np.where(denom > eps, np.clip((b * f - c * e) / np.where(denom > eps, denom, 1.0), 0.0, 1.0), 0.0)
-    t = (b * s + f) / safe_e
-    s = np.where(
-        t < 0.0, np.clip(-c / safe_a, 0.0, 1.0), np.where(t > 1.0, np.clip((b - c) / safe_a, 0.0, 1.0), s)
-    )
-    t = np.clip(t, 0.0, 1.0)
-    # degenerate segments (points): the general formula's special cases
-    s = np.where(a_pos & ~e_pos, np.clip(-c / safe_a, 0.0, 1.0), s)
-    t = np.where(a_pos & ~e_pos, 0.0, t)
-    s = np.where(~a_pos, 0.0, s)
-    t = np.where(~a_pos & e_pos, np.clip(f / safe_e, 0.0, 1.0), np.where(~a_pos, 0.0, t))
-    closest = (p1 + s[..., None] * d1) - (p2 + t[..., None] * d2)
-    return np.linalg.norm(closest, axis=-1) - r1 - r2
 
 
 def point_segment_gaps(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -337,8 +307,7 @@ class InteractionRecorder:
         share = np.array([s for _, _, s in ARMS])
         q = p + share[:, None] * (q - p)
         r = np.where(share == 1.0, 0.045, 0.04) * me.scale
-        a, b = pos[lk.a[links]][None], pos[lk.b[links]][None]
-        gaps = segment_gaps(p[:, None], q[:, None], r[:, None], a, b, lk.radius[links][None])
+        gaps = capsule_gaps(p, q, r, pos[lk.a[links]], pos[lk.b[links]], lk.radius[links])
         return max(0.0, float(-gaps.min()))
 
     def _measure_carried(self, chars) -> None:
@@ -409,8 +378,7 @@ class InteractionRecorder:
         out = ~into & np.isin(lk.a[theirs], hands)
         p_out, q_out = p[out], q[out]
         p[out] = q_out + FOREARM_SHARE * (p_out - q_out)
-        gaps = segment_gaps(pos[lk.a[mine]][:, None], pos[lk.b[mine]][:, None], lk.radius[mine][:, None],
-                            p[None], q[None], lk.radius[theirs][None])  # fmt: skip
+        gaps = capsule_gaps(pos[lk.a[mine]], pos[lk.b[mine]], lk.radius[mine], p, q, lk.radius[theirs])
         return max(0.0, float(-gaps.min()))
 
     def report(self) -> dict:
