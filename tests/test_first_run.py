@@ -30,19 +30,39 @@ def run_python(*args: str, env: dict | None = None, cwd: Path | None = None, tim
 # -- the kernel cache ---------------------------------------------------------------------------
 
 
-@pytest.mark.slow  # compiles kernels in an empty cache
-def test_kernel_cache_is_keyed_by_version_not_install_path_and_shared(tmp_path):
+@pytest.fixture
+def balls_scene(tmp_path) -> Path:
+    """Two balls falling onto each other: they need the physics kernels, the contact ones too."""
+    scene = tmp_path / "balls.yaml"
+    scene.write_text("twig: 1\nname: balls\nentities:\n"
+                     "  - {name: a, body: ball, position: [0, 0.3, 0]}\n"
+                     "  - {name: b, body: ball, position: [0.05, 0.6, 0]}\n")  # fmt: skip
+    return scene
+
+
+@pytest.mark.slow  # compiles kernels in an empty cache (the one test that does)
+def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_and_shared(
+    tmp_path, balls_scene
+):
     cache = tmp_path / "cache"
     build = run_python(
         "-c",
-        "from twig_ecs import kernels; b = kernels.KernelBuild('empty'); b.wait(); "
-        "print(len(b.compiled), b.errors, kernels.cache_folder())",  # fmt: skip
+        "from twig_ecs import kernels\n"
+        f"b = kernels.KernelBuild({str(balls_scene)!r}); b.wait()\n"
+        "print(repr((b.compiles, b.errors, str(kernels.cache_folder()))))",
         env={"TWIG_CACHE_DIR": str(cache)},
     )
     assert build.returncode == 0, build.stderr
-    count, errors, folder = build.stdout.split(maxsplit=2)
-    assert int(count) >= 5 and errors == "[]"  # the empty scene's kernels compiled in the workers
-    folder = Path(folder.strip())
+    compiles, errors, folder = eval(build.stdout)  # noqa: S307 - our own probe's printout
+    assert errors == []
+    compiled = {name for _, name in compiles}
+    assert {"resolve_contacts", "solve_collisions", "relax_once", "integrate_nodes"} <= compiled
+    assert {worker for worker, _ in compiles} == {0, 1}  # both workers compiled a share
+    # a kernel one worker compiles twice has a second type specialisation, compiled again
+    # on every first run (resolve_contacts had one, for a literal False)
+    assert [(w, name) for w, name in set(compiles) if compiles.count((w, name)) > 1] == []
+
+    folder = Path(folder)
     assert folder.parent == cache and folder.name.startswith("kernels-")
     # kernels are filed by source folder name, not by a hash of where the sources are installed
     assert {p.name for p in folder.iterdir() if p.is_dir()} <= {"systems", "twig_ecs"}
@@ -58,13 +78,14 @@ def test_kernel_cache_is_keyed_by_version_not_install_path_and_shared(tmp_path):
         "    def on_start(self, ev): compiled.append(ev.data['dispatcher'].py_func.__name__)\n"
         "    def on_end(self, ev): pass\n"
         "event.register('numba:compile', L())\n"
-        "with Scene.load('empty') as s: s.step(2)\n"
+        f"with Scene.load({str(balls_scene)!r}) as s: s.step(20)\n"
         "print(twig_ecs.__file__, compiled)\n"
     )
     reuse = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(cache), "PYTHONPATH": str(other)})
     assert reuse.returncode == 0, reuse.stderr
     assert reuse.stdout.startswith(str(other))  # it really ran the copy
-    assert reuse.stdout.strip().endswith("[]")  # and compiled nothing: the cache was shared
+    # and compiled nothing: the cache was shared, and the build left no specialisation out
+    assert reuse.stdout.strip().endswith("[]")
 
 
 def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_path):
@@ -243,32 +264,6 @@ def test_a_run_begun_in_plain_python_ends_in_the_same_state_as_a_compiled_one():
         event.unregister("numba:compile", listener)
         interim.finish()
     assert compiles == []  # nothing compiled in this process while the names were swapped
-
-
-@pytest.mark.slow  # compiles kernels in an empty cache
-def test_each_kernel_compiles_once_on_a_first_run(tmp_path):
-    # a second specialisation is a second compile on every first run: resolve_contacts had one,
-    # for a literal False. Two balls falling onto each other need the physics kernels, the
-    # contact ones included; an empty cache makes this process compile them all.
-    scene = tmp_path / "balls.yaml"
-    scene.write_text("twig: 1\nname: balls\nentities:\n"
-                     "  - {name: a, body: ball, position: [0, 0.3, 0]}\n"
-                     "  - {name: b, body: ball, position: [0.05, 0.6, 0]}\n")  # fmt: skip
-    probe = (
-        "from collections import Counter; from numba.core import event; from twig_ecs import Scene\n"
-        "seen = Counter()\n"
-        "class L(event.Listener):\n"
-        "    def on_start(self, ev): seen[ev.data['dispatcher'].py_func.__qualname__] += 1\n"
-        "    def on_end(self, ev): pass\n"
-        "event.register('numba:compile', L())\n"
-        f"with Scene.load({str(scene)!r}) as s: s.step(20)\n"
-        "print(sorted((k, n) for k, n in seen.items() if '<locals>' not in k))\n"  # not numba's own
-    )
-    result = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
-    assert result.returncode == 0, result.stderr
-    seen = dict(eval(result.stdout))  # noqa: S307 - our own probe's printout
-    assert {"resolve_contacts", "solve_collisions", "relax_once", "integrate_nodes"} <= set(seen)
-    assert {name: n for name, n in seen.items() if n != 1} == {}
 
 
 def test_a_cached_start_links_kernels_without_numbas_compiler_set_up_and_compiles_after():

@@ -302,6 +302,9 @@ class KernelBuild:
         self.source = str(source)
         self.started = time.perf_counter()
         self.compiled: dict[str, float] = {}  # kernel name -> seconds it took
+        #: every compile as (worker number, kernel name), repeats kept: a kernel one worker
+        #: compiles twice has a second type specialisation, paid again on every first run
+        self.compiles: list[tuple[int, str]] = []
         self.errors: list[str] = []
         self.expected = _expected_count(self.source)
         self.finished = False
@@ -326,11 +329,11 @@ class KernelBuild:
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
             )  # fmt: skip
             self._procs.append(proc)
-            threading.Thread(target=self._read, args=(proc,), daemon=True).start()
+            threading.Thread(target=self._read, args=(k, proc), daemon=True).start()
 
-    def _read(self, proc: subprocess.Popen) -> None:
+    def _read(self, worker: int, proc: subprocess.Popen) -> None:
         for line in proc.stdout:
-            self._lines.put(line)
+            self._lines.put((worker, line))
         err = proc.stderr.read()
         proc.wait()
         self._lines.put(("exit", proc.returncode, err))
@@ -342,15 +345,17 @@ class KernelBuild:
                 item = self._lines.get_nowait()
             except queue.Empty:
                 break
-            if isinstance(item, tuple):
+            if item[0] == "exit":
                 _, code, err = item
                 self._exited = getattr(self, "_exited", 0) + 1
                 if code:
                     self.errors.append(err.strip().splitlines()[-1] if err.strip() else f"exit {code}")
                 continue
-            parts = item.split()
+            worker, line = item
+            parts = line.split()
             if len(parts) == 3 and parts[0] == "compiled":
                 self.compiled.setdefault(parts[1], float(parts[2]))
+                self.compiles.append((worker, parts[1]))
         if not self.finished and getattr(self, "_exited", 0) == len(self._procs):
             self.finished = True
             shutil.rmtree(self._claims, ignore_errors=True)
