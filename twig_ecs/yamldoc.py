@@ -10,6 +10,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
+import numpy as np
 import yaml
 
 from twig_ecs.errors import SceneError
@@ -80,6 +81,35 @@ def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConst
     return constructor.construct_object(node, deep=True)
 
 
+def _expanded_size(node: yaml.Node, file: str, memo: dict[int, int | None], depth: int = 0) -> int:
+    """How many values ``node`` holds once its aliases are expanded, counted without expanding.
+
+    An alias is the same node object in several places, so each node is counted once and
+    its count reused: a "billion laughs" document is refused in microseconds instead of
+    after a million values have been built. Deep nesting and self-reference are refused here too.
+    """
+    known = memo.get(id(node), -1)
+    if known is None:
+        raise SceneError(f"nested more than {MAX_DEPTH} deep (or an alias refers to itself)", file,
+                         node.start_mark.line + 1)  # fmt: skip
+    if known >= 0:
+        return known
+    if depth > MAX_DEPTH:
+        raise SceneError(f"nested more than {MAX_DEPTH} deep (or an alias refers to itself)", file,
+                         node.start_mark.line + 1)  # fmt: skip
+    memo[id(node)] = None  # being counted: meeting it again below means it contains itself
+    total = 1
+    if isinstance(node, yaml.MappingNode):
+        for key_node, value_node in node.value:
+            total += _expanded_size(key_node, file, memo, depth + 1)
+            total += _expanded_size(value_node, file, memo, depth + 1)
+    elif isinstance(node, yaml.SequenceNode):
+        for item in node.value:
+            total += _expanded_size(item, file, memo, depth + 1)
+    memo[id(node)] = total
+    return total
+
+
 class _Loader(yaml.SafeLoader):
     """SafeLoader that also reads ``1e3`` and ``-2.5E-4`` as floats, as YAML 1.2 does.
 
@@ -110,6 +140,25 @@ else:  # pragma: no cover - PyYAML built without libyaml
     _FastLoader = _Loader
 
 
+def _refuse_deep_brackets(text: str, file: str) -> None:
+    """Refuse a document whose ``[``/``{`` brackets nest deeper than :data:`MAX_DEPTH`.
+
+    PyYAML's parser would read thousands of nested brackets for seconds before it gave
+    up with a RecursionError; one vectorised pass over the bytes finds them at once.
+    Brackets inside quotes and comments count too: a real scene never has dozens open.
+    """
+    if text.count("[") + text.count("{") <= MAX_DEPTH:
+        return
+    raw = np.frombuffer(text.encode("utf-8", "surrogatepass"), dtype=np.uint8)
+    step = ((raw == ord("[")) | (raw == ord("{"))).astype(np.int32)
+    step -= (raw == ord("]")) | (raw == ord("}"))
+    depth = np.cumsum(step)
+    if depth.max() > MAX_DEPTH:
+        where = int(np.argmax(depth > MAX_DEPTH))
+        line = raw[:where].tobytes().count(b"\n") + 1
+        raise SceneError(f"invalid YAML: brackets nested more than {MAX_DEPTH} deep", file, line)
+
+
 def parse_yaml(text: str, file: str = "<string>", trusted_source: bool = False) -> Any:
     """Parse one YAML document into YDict/YList/scalars; syntax errors become SceneError.
 
@@ -118,12 +167,17 @@ def parse_yaml(text: str, file: str = "<string>", trusted_source: bool = False) 
     """
     if len(text) > MAX_BYTES:
         raise SceneError(f"file too large: over {MAX_BYTES // (1024 * 1024)} MiB", file)
+    _refuse_deep_brackets(text, file)
     try:
         loader = (_FastLoader if trusted_source else _Loader)(text)
         try:
             root = loader.get_single_node()
             if root is None:
                 return None
+            if _expanded_size(root, file, {}) > MAX_VALUES:
+                raise SceneError(
+                    f"document too large: more than {MAX_VALUES} values (aliases expanded)", file
+                )
             return _convert(root, file, loader, [MAX_VALUES])
         finally:
             loader.dispose()
