@@ -7,18 +7,22 @@ call each over the table of characters. Which systems a scene runs is up to its 
 (:mod:`twig_ecs.plugins`); the order of their stages is :data:`twig_ecs.schedule.PIPELINE`.
 """
 
-from twig_ecs.systems.arms import ArmsSystem
-from twig_ecs.systems.attention import AttentionSystem
-from twig_ecs.systems.collide import CollideSystem
-from twig_ecs.systems.constrain import ConstrainSystem
-from twig_ecs.systems.gait import GaitSystem
-from twig_ecs.systems.gaze import GazeSystem
-from twig_ecs.systems.integrate import IntegrateSystem
-from twig_ecs.systems.patrol import PatrolSystem
-from twig_ecs.systems.posture import PostureSystem
-from twig_ecs.systems.respiration import RespirationSystem
-from twig_ecs.systems.select_behavior import SelectBehaviorSystem
-from twig_ecs.systems.sense import SenseSystem
+from twig_ecs.kernelcache import configure_cache
+
+configure_cache()  # before any system module defines its kernels (numba binds the cache then)
+
+from twig_ecs.systems.arms import ArmsSystem  # noqa: E402
+from twig_ecs.systems.attention import AttentionSystem  # noqa: E402
+from twig_ecs.systems.collide import CollideSystem  # noqa: E402
+from twig_ecs.systems.constrain import ConstrainSystem  # noqa: E402
+from twig_ecs.systems.gait import GaitSystem  # noqa: E402
+from twig_ecs.systems.gaze import GazeSystem  # noqa: E402
+from twig_ecs.systems.integrate import IntegrateSystem  # noqa: E402
+from twig_ecs.systems.patrol import PatrolSystem  # noqa: E402
+from twig_ecs.systems.posture import PostureSystem  # noqa: E402
+from twig_ecs.systems.respiration import RespirationSystem  # noqa: E402
+from twig_ecs.systems.select_behavior import SelectBehaviorSystem  # noqa: E402
+from twig_ecs.systems.sense import SenseSystem  # noqa: E402
 
 __all__ = [
     "ArmsSystem",

@@ -88,6 +88,24 @@ def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_a
     assert reuse.stdout.strip().endswith("[]")
 
 
+def test_every_kernel_is_filed_by_our_cache_locator():
+    # numba binds a kernel to a cache locator when it is decorated: a kernel module imported
+    # before configure_cache (a new module that skips kernelmath and the systems package,
+    # say) would cache under a hash of the install path, or crash on a read-only HOME
+    from numba.core.dispatcher import Dispatcher
+
+    from twig_ecs.kernelcache import KernelCacheLocator
+
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there are no kernels to file")
+    kernels._import_kernel_modules()
+    found = {f"{m.__name__}.{k}": type(v._cache._impl.locator).__name__
+             for m in list(sys.modules.values()) if (getattr(m, "__name__", "") or "").startswith("twig_ecs")
+             for k, v in vars(m).items() if isinstance(v, Dispatcher) and v._can_compile}  # fmt: skip
+    assert len(found) >= 20 and "twig_ecs.systems.collide.solve_collisions" in found
+    assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
+
+
 def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_path):
     blocker = tmp_path / "not-a-folder"
     blocker.write_text("a file where the cache folder would go")

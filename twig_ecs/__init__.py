@@ -31,21 +31,37 @@ def _checkout_subpackages() -> None:
 
 _checkout_subpackages()
 
-from twig_ecs.kernels import configure_cache  # noqa: E402
-
-configure_cache()  # before any kernel module is imported
+#: Public names and the modules that define them: imported on first use (PEP 562), so
+#: ``twig --version`` and ``twig --help`` start without loading numba and the kernels.
+_LAZY = {
+    "Scene": "twig_ecs.scene",
+    "Settings": "twig_ecs.scenefile",
+    "System": "twig_ecs.system",
+    "Plugin": "twig_ecs.plugins",
+    "PhysicsPlugin": "twig_ecs.plugins",
+    "ControlPlugin": "twig_ecs.plugins",
+    "BehavioursPlugin": "twig_ecs.plugins",
+    "SchoolyardMotivesPlugin": "twig_ecs.plugins",
+}
 
 from twig_ecs.errors import SceneError, ScheduleError, TwigError  # noqa: E402
-from twig_ecs.plugins import (  # noqa: E402
-    BehavioursPlugin,
-    ControlPlugin,
-    PhysicsPlugin,
-    Plugin,
-    SchoolyardMotivesPlugin,
-)
-from twig_ecs.scene import Scene  # noqa: E402
-from twig_ecs.scenefile import Settings  # noqa: E402
-from twig_ecs.system import System  # noqa: E402
+
+
+def __getattr__(name: str):
+    """Import a public name's module the first time the name is used."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'twig_ecs' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])
+
 
 __all__ = ["BehavioursPlugin", "ControlPlugin", "PhysicsPlugin", "Plugin", "Scene", "SceneError",
            "SchoolyardMotivesPlugin", "ScheduleError",

@@ -12,7 +12,11 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from twig_ecs.kernelcache import configure_cache
+
+configure_cache()  # our cache locator first: numba binds a kernel's cache when it is decorated
+
+from numba import njit  # noqa: E402
 
 PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_KNEE, R_KNEE = 0, 1, 2, 3, 4, 5, 6, 7
 L_FOOT, R_FOOT, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND = 8, 9, 10, 11, 12, 13, 14, 15

@@ -26,7 +26,6 @@ code; later runs load it in a blink. Three things are ours rather than numba's:
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import queue
@@ -40,11 +39,19 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
-_PACKAGE = Path(__file__).resolve().parent
-#: Cache folders of other kernel versions kept besides the current one.
-KEEP_OLD = 3
-#: ...and older ones are deleted only when unused for this many days.
-STALE_DAYS = 7
+from twig_ecs import kernelcache
+from twig_ecs.kernelcache import (  # noqa: F401 - the cache's public names, here as before
+    KernelCacheLocator,
+    cache_base,
+    cache_folder,
+    configure_cache,
+    jit_disabled,
+    kernel_dirs,
+    kernel_version,
+)
+
+_PACKAGE = kernelcache._PACKAGE
+
 #: Kernels a scene compiles when no earlier build says how many (the schoolyard: 20).
 DEFAULT_KERNEL_COUNT = 20
 #: What a :class:`KernelBuild` worker process runs.
@@ -52,182 +59,6 @@ _WORKER_CODE = (
     "import sys, json; from twig_ecs.kernelworker import work; sys.exit(work(json.loads(sys.argv[1])))"
 )
 _checked = False
-_folder: Path | None = None
-_warnings: list[str] = []
-
-
-def jit_disabled() -> bool:
-    """Is numba's JIT off (``NUMBA_DISABLE_JIT=1``)?"""
-    return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
-
-
-def kernel_dirs() -> list[Path]:
-    """Folders whose ``.py`` files hold kernels: the package and its systems."""
-    systems = _PACKAGE / "systems"  # an installed package holds its systems
-    if not systems.is_dir():  # a checkout: systems/ beside twig_ecs/
-        systems = _PACKAGE.parent / "systems"
-    return [_PACKAGE, systems]
-
-
-def kernel_version() -> str:
-    """A short hash of every kernel source and the numba, numpy and Python versions."""
-    import numba
-    import numpy
-
-    digest = hashlib.sha256()
-    digest.update(f"{numba.__version__} {numpy.__version__} {sys.version}".encode())
-    systems = kernel_dirs()[1]
-    for path in sorted(systems.glob("*.py")) + [_PACKAGE / "kernelmath.py", _PACKAGE / "store.py"]:
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
-
-
-def cache_base() -> Path:
-    """The folder of all cached kernel versions: ``TWIG_CACHE_DIR`` or the user cache dir."""
-    chosen = os.environ.get("TWIG_CACHE_DIR")
-    if chosen:
-        return Path(chosen)
-    import platformdirs
-
-    return Path(platformdirs.user_cache_dir("twig-ecs", appauthor=False))
-
-
-def _writable(folder: Path) -> bool:
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        tempfile.TemporaryFile(dir=folder).close()
-    except OSError:
-        return False
-    return True
-
-
-def configure_cache() -> Path | None:
-    """Choose this kernel version's cache folder and route our kernels to it.
-
-    Must run before the kernel modules are imported. Returns the folder, or None when
-    ``NUMBA_CACHE_DIR`` is set by the user or JIT is off.
-    """
-    global _folder
-    if os.environ.get("NUMBA_CACHE_DIR") or jit_disabled():
-        return None
-    version = kernel_version()
-    base = cache_base()
-    folder = base / f"kernels-{version}"
-    if _writable(folder):
-        _prune(base, folder)
-    else:
-        fallback = Path(tempfile.gettempdir()) / f"twig-ecs-{_user_tag()}" / f"kernels-{version}"
-        if not _writable(fallback):
-            fallback = Path(tempfile.mkdtemp(prefix="twig-ecs-kernels-"))
-        _warn(f"twig: cannot write the kernel cache in {base}; using {fallback} for now "
-              "(set TWIG_CACHE_DIR to a writable folder to keep compiled kernels)")  # fmt: skip
-        folder = fallback
-    _folder = folder
-    _install_locator()
-    return folder
-
-
-def cache_folder() -> Path | None:
-    """The folder compiled kernels go to (None when numba chooses, or JIT is off)."""
-    return _folder
-
-
-def _user_tag() -> str:
-    getuid = getattr(os, "getuid", None)
-    return str(getuid()) if getuid else os.environ.get("USERNAME", "user")
-
-
-def _warn(message: str) -> None:
-    """Print a warning once per process."""
-    if message not in _warnings:
-        _warnings.append(message)
-        print(message, file=sys.stderr, flush=True)
-
-
-def _prune(base: Path, current: Path) -> None:
-    """Delete cache folders of kernel versions unused for ``STALE_DAYS``, beyond the newest few.
-
-    Several checkouts or venvs of different versions may share the cache folder and run at
-    once; a version still in use (its folder touched at each start) is never deleted.
-    """
-    try:
-        os.utime(current)  # in use now
-        cutoff = time.time() - STALE_DAYS * 86400
-        old = sorted((p for p in base.glob("kernels-*") if p != current), key=lambda p: p.stat().st_mtime)
-        for path in old[:-KEEP_OLD] if len(old) > KEEP_OLD else []:
-            if path.stat().st_mtime < cutoff:
-                shutil.rmtree(path, ignore_errors=True)
-    except OSError:
-        pass
-
-
-def _install_locator() -> None:
-    from numba.core import caching
-
-    impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # renamed in numba 0.6x
-    if KernelCacheLocator not in impl._locator_classes:
-        impl._locator_classes.insert(0, KernelCacheLocator)
-    _install_light_loads(caching.Cache)
-
-
-def _install_light_loads(cache_class) -> None:
-    """Load our cached kernels without numba's compiler set-up (a cached start's largest cost).
-
-    Numba's ``Cache.load_overload`` first refreshes the target context: it imports and
-    registers every typing and lowering implementation numba has (linalg, random, typed
-    containers, jitclass, ...), about 0.2 s of a 1 s cached start, all of it needed to
-    *compile* a kernel and none of it to link a cached one. For kernels filed by
-    :class:`KernelCacheLocator` this loads with only the runtime (NRT) initialised, which
-    the cached machine code links against. A miss (no entry for the signature) falls
-    through to numba's compile, which does the full refresh itself, so nothing compiles
-    with a partial context.
-    """
-    full = cache_class.load_overload
-    if getattr(full, "twig_light", False):
-        return
-
-    def load_overload(self, sig, target_context):
-        if not isinstance(getattr(self._impl, "locator", None), KernelCacheLocator):
-            return full(self, sig, target_context)
-        from numba.core.runtime import rtsys
-
-        rtsys.initialize(target_context)  # the runtime the cached code calls (allocation, refcounts)
-        with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
-
-    load_overload.twig_light = True
-    load_overload.__doc__ = full.__doc__
-    cache_class.load_overload = load_overload
-
-
-def _locator_base():
-    from numba.core.caching import _CacheLocator, _SourceFileBackedLocatorMixin
-
-    return _SourceFileBackedLocatorMixin, _CacheLocator
-
-
-class KernelCacheLocator(*_locator_base()):
-    """Files kernels from our sources under the version folder, by source folder name.
-
-    Numba's own locators file them under a hash of the install path; this one does not,
-    so the same sources in another venv find them. The source stamp is numba's content
-    hash of the file.
-    """
-
-    def __init__(self, py_func, py_file: str) -> None:
-        self._py_file = py_file
-        self._lineno = py_func.__code__.co_firstlineno
-        self._cache_path = str(_folder / Path(py_file).parent.name)
-
-    def get_cache_path(self) -> str:
-        return self._cache_path
-
-    @classmethod
-    def from_function(cls, py_func, py_file: str):
-        if _folder is None or Path(py_file).resolve().parent not in kernel_dirs():
-            return None
-        return super().from_function(py_func, py_file)
 
 
 # -- is everything compiled? ---------------------------------------------------------------
@@ -272,7 +103,7 @@ def ensure_compiled() -> None:
         return
     _checked = True
     if not is_cached():
-        where = f" (cached in {_folder})" if _folder else ""
+        where = f" (cached in {cache_folder()})" if cache_folder() else ""
         print(f"twig: compiling physics kernels, first run only{where}...", file=sys.stderr, flush=True)
 
 
@@ -319,8 +150,8 @@ class KernelBuild:
         env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent), env.get("PYTHONPATH", "")]).rstrip(
             os.pathsep
         )
-        if _folder is not None:
-            env["TWIG_CACHE_DIR"] = str(_folder.parent)  # the same folder, fallback included
+        if cache_folder() is not None:
+            env["TWIG_CACHE_DIR"] = str(cache_folder().parent)  # the same folder, fallback included
         self._procs = []
         for k in range(count):
             order = "reverse" if k % 2 else "forward"
@@ -554,7 +385,7 @@ class InterimKernels:
 
 def needs_build() -> bool:
     """Would a scene compile kernels now (none cached for this version, JIT on)?"""
-    return not jit_disabled() and _folder is not None and not is_cached()
+    return not jit_disabled() and cache_folder() is not None and not is_cached()
 
 
 def prepare(source, seed: int = 0, content=(), parameters: dict | None = None,
@@ -587,7 +418,7 @@ def _stderr_progress() -> Callable[[str], None]:
 
 
 def _counts_file() -> Path | None:
-    return None if _folder is None else _folder / "kernel-counts.json"
+    return None if cache_folder() is None else cache_folder() / "kernel-counts.json"
 
 
 def _expected_count(source: str) -> int:

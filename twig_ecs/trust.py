@@ -25,7 +25,6 @@ from collections.abc import Iterator
 from importlib.metadata import entry_points
 from pathlib import Path
 
-from twig_ecs.behavior import ENTRY_POINT_GROUP
 from twig_ecs.errors import TwigError
 
 _TRUSTED: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_trusted", default=False)
@@ -70,6 +69,8 @@ def loading_data() -> Iterator[None]:
 
 def installed_plugin_packages() -> set[str]:
     """Top-level package names of installed twig plug-ins (entry points of twig_ecs.behaviors)."""
+    from twig_ecs.behavior import ENTRY_POINT_GROUP  # here: `twig --help` need not load behaviours
+
     return {ep.module.split(".")[0] for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 

@@ -7,8 +7,6 @@ import sys
 import time
 from collections.abc import Callable
 
-from twig_ecs.bench import cases, mujoco_ragdolls, timing
-
 CASES = ("schoolyard", "crowd", "approach", "ragdolls")
 SIZES = (10, 100, 1000)
 
@@ -35,6 +33,10 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
     machine load; the case gets MuJoCo's times and ``vs_mujoco`` = ours / MuJoCo (below
     1: we are faster).
     """
+    # here, not at the top: `twig`'s parser reads CASES and SIZES for every command,
+    # and the cases import the whole scene (numba included)
+    from twig_ecs.bench import cases, mujoco_ragdolls, timing
+
     say = say or (lambda line: None)
     out: dict = {"machine": f"{platform.machine()} {platform.processor() or ''}".strip(),
                  "python": platform.python_version(), "steps": steps, "warmup": warmup}  # fmt: skip
