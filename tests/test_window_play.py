@@ -237,3 +237,76 @@ def test_recording_writes_a_playable_mp4_of_the_window(pyglet_window, tmp_path):
     last = frames[-1].astype(np.int16)
     assert last.std() > 10  # a picture, not a blank
     assert np.abs(last - shown[:180, :322].astype(np.int16)).mean() < 8  # what the window showed
+
+
+def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_window, tmp_path):
+    import shutil
+
+    import esper
+
+    from twig_ecs import Scene
+    from twig_ecs.components import Attachment
+    from twig_ecs.graphics.tuning import builtin_scene
+
+    mouse, key = pyglet_window.mouse, pyglet_window.key
+    original = Scene.load("schoolyard")
+    source = original.source
+    original.close()
+    assert builtin_scene(source)
+    scene_file = tmp_path / "yard.yaml"
+    shutil.copy(source, scene_file)
+    window = open_window(str(scene_file), size=(1280, 720), headless=True)
+    try:
+        viewer = window.viewer
+        press_key(window, key.F1)
+        for _ in range(3):
+            window.frame(elapsed=1 / 60)
+        assert viewer.ui is not None and len(viewer.ui.windows) == 3
+        scene = viewer.scene
+        child = scene.entity("small_child")
+        attachment = esper.component_for_entity(child.entity, Attachment)
+        window.frame(elapsed=0.5)
+        assert attachment.anxiety == 0.0  # near the parent (inside 2.5 m): no anxiety
+
+        # drag the safe-distance slider all the way to the left: 0 m, so the child is "away"
+        yaw = viewer.camera.yaw
+        x0, y0, x1, y1 = viewer.ui.rects["small_child.attachment.safe_distance"]
+        height = window.height
+        start = ((x0 + x1) / 2, height - (y0 + y1) / 2)
+        window.dispatch_event("on_mouse_motion", *start, 0, 0)
+        window.frame(elapsed=0.0)
+        window.dispatch_event("on_mouse_press", *start, mouse.LEFT, 0)
+        window.frame(elapsed=0.0)
+        for k in range(1, 6):
+            window.dispatch_event("on_mouse_drag", start[0] - 80 * k, start[1], -80, 0, mouse.LEFT, 0)
+            window.frame(elapsed=0.0)
+        window.dispatch_event("on_mouse_release", start[0] - 400, start[1], mouse.LEFT, 0)
+        window.frame(elapsed=0.0)
+        assert attachment.safe_distance == 0.0
+        assert not viewer.spring.holding and viewer.camera.yaw == yaw  # the drag was the slider's only
+        for _ in range(4):
+            window.frame(elapsed=0.25)
+        assert attachment.anxiety > 0.01  # the running child now frets
+
+        # write it back into the scene file
+        bx0, by0, bx1, by1 = viewer.ui.rects["write"]
+        button = ((bx0 + bx1) / 2, height - (by0 + by1) / 2)
+        window.dispatch_event("on_mouse_motion", *button, 0, 0)
+        window.frame(elapsed=0.0)
+        window.dispatch_event("on_mouse_press", *button, mouse.LEFT, 0)
+        window.frame(elapsed=0.0)
+        window.dispatch_event("on_mouse_release", *button, mouse.LEFT, 0)
+        for _ in range(2):
+            window.frame(elapsed=0.0)
+        assert viewer.ui.message.startswith("wrote 1 parameter"), viewer.ui.message
+    finally:
+        window.close()
+    text = scene_file.read_text()
+    assert "safe_distance: 0  " in text and "# m: closer than this anxiety fades" in text  # comments kept
+    reloaded = Scene.load(str(scene_file))
+    try:
+        reloaded.activate()
+        attachment = esper.component_for_entity(reloaded.entity("small_child").entity, Attachment)
+        assert attachment.safe_distance == 0.0 and attachment.per_metre == pytest.approx(0.012)
+    finally:
+        reloaded.close()

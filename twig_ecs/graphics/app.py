@@ -31,6 +31,7 @@ from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics import commands
 from twig_ecs.graphics.camera import CameraSpec, OrbitCamera
+from twig_ecs.graphics.inspector_ui import imgui_available
 from twig_ecs.graphics.mouse_spring import MouseSpring
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
 from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
@@ -158,6 +159,10 @@ class Viewer:
         self.goal_log: list[str] = []  # goal events, newest last ("ann: hug done")
         self._press: Press | None = None
         self._grab_plane: tuple[np.ndarray, np.ndarray] | None = None
+        #: the ImGui inspector (made at the first F1 when imgui-bundle is installed), and
+        #: whether the mouse button now held went down on it
+        self.ui = None
+        self._ui_held = False
         self._attach(self.scene)
 
     def _attach(self, scene) -> None:
@@ -371,8 +376,22 @@ class Viewer:
     def _ray(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
         return cursor_ray(self.camera, x, y, self.window_size)
 
+    def _ui_shown(self) -> bool:
+        return self.show_inspector and self.ui is not None
+
+    def mouse_motion(self, x: float, y: float) -> None:
+        """The cursor moved with no button down: the inspector follows it (hover, scrolling)."""
+        if self._ui_shown():
+            self.ui.mouse_move(x, y, self.window_size[1])
+
     def mouse_press(self, x: float, y: float, button: int, modifiers: int, mouse) -> None:
-        """A left press remembers what is under the cursor: a drag grabs it, a click selects it."""
+        """A left press remembers what is under the cursor: a drag grabs it, a click selects it.
+        A press on the inspector is the inspector's."""
+        if self._ui_shown() and self.ui.covers(x, y, self.window_size[1]):
+            self._ui_held = True
+            index = {mouse.LEFT: 0, mouse.RIGHT: 1, mouse.MIDDLE: 2}.get(button, 0)
+            self.ui.mouse_button(x, y, self.window_size[1], True, index)
+            return
         if self.camera is None or button != mouse.LEFT or modifiers & self._key.MOD_SHIFT:
             return
         eye, direction = self._ray(x, y)
@@ -396,6 +415,11 @@ class Viewer:
 
     def mouse_release(self, x: float, y: float, button: int, modifiers: int, mouse) -> None:
         """Let go of a held part (it flies on: a throw), or treat a left click as a selection."""
+        if self._ui_held:
+            self._ui_held = False
+            index = {mouse.LEFT: 0, mouse.RIGHT: 1, mouse.MIDDLE: 2}.get(button, 0)
+            self.ui.mouse_button(x, y, self.window_size[1], False, index)
+            return
         press, self._press = self._press, None
         if self.spring.holding:
             name, part = self.spring.body, self.spring.part
@@ -450,6 +474,9 @@ class Viewer:
                    window_height: int, mouse) -> None:  # fmt: skip
         """Left drag on a body part pulls it on the mouse spring; elsewhere left drag orbits;
         right (or middle, or shift+left) drag pans with the cursor."""
+        if self._ui_held:
+            self.ui.mouse_move(x, y, self.window_size[1])
+            return
         if self.camera is None:
             return
         press = self._press
@@ -474,7 +501,12 @@ class Viewer:
         elif buttons & mouse.LEFT:
             self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, -dy * ORBIT_DEG_PER_PIXEL)
 
-    def scroll(self, amount: float) -> None:
+    def scroll(self, amount: float, x: float | None = None, y: float | None = None) -> None:
+        """The wheel zooms, or scrolls the inspector under the cursor."""
+        if self._ui_shown() and x is not None and self.ui.covers(x, y, self.window_size[1]):
+            self.ui.mouse_move(x, y, self.window_size[1])
+            self.ui.scroll(amount)
+            return
         if self.camera is not None:
             self.camera.zoom(0.88**amount)
 
@@ -526,7 +558,7 @@ class Viewer:
         if self.show_help:
             image = self._panel("help", (scale,), lambda: text_panel(HELP_LINES, scale, title="twig play"))
             out.append(("help", image, (width - image.size[0]) // 2, (height - image.size[1]) // 2))
-        if self.show_inspector:
+        if self.show_inspector and self.ui is None:  # the text inspector, without imgui-bundle
             lines = tuple(inspector_lines(self.scene, self.selected))
             image = self._panel(
                 "inspector",
@@ -557,7 +589,13 @@ class Viewer:
         renderer.options.selected = self.selected
         renderer.options.attention = self.show_inspector  # the inspector brings the focus lines
         renderer.options.extra_capsules = self.spring_line()
+        if self.show_inspector and self.ui is None and imgui_available():
+            from twig_ecs.graphics.inspector_ui import InspectorUI
+
+            self.ui = InspectorUI(renderer.ctx)
         renderer.render(self.scene, self.camera, size, self.alpha, tuple(self.panels(size, scale)))
+        if self._ui_shown():
+            self.ui.draw(self, renderer.frame, size, self.window_size, self._elapsed or 1 / 60)
         if self.screenshot_requested:
             self.screenshot_requested = False
             self.save_screenshot(renderer)
@@ -600,6 +638,9 @@ class Viewer:
         if self.recorder is not None:  # a recording still running is finished, not lost
             self.last_recording = self.recorder.close()
             self.recorder = None
+        if self.ui is not None:
+            self.ui.release()
+            self.ui = None
         self.scene.close()
 
 
@@ -850,7 +891,12 @@ def _window_class(window_module):
 
         def on_mouse_scroll(self, x, y, scroll_x, scroll_y) -> None:
             if self.viewer is not None:
-                self.viewer.scroll(scroll_y)
+                self.viewer.scroll(scroll_y, x, y)
+
+        def on_mouse_motion(self, x, y, dx, dy) -> None:
+            if self.viewer is not None:
+                self.viewer.window_size = (self.width, self.height)
+                self.viewer.mouse_motion(x, y)
 
         def on_resize(self, width: int, height: int) -> None:
             pass  # the renderer follows get_framebuffer_size() every frame
