@@ -310,3 +310,49 @@ def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_w
         assert attachment.safe_distance == 0.0 and attachment.per_metre == pytest.approx(0.012)
     finally:
         reloaded.close()
+
+
+def picture_share(window, name: str) -> float:
+    """How much of the picture's height a body covers (its nodes' projected extent)."""
+    viewer = window.viewer
+    px = viewer.camera.project(viewer.scene.entity(name).node_positions, window.width, window.height)
+    return float(px[:, 1].max() - px[:, 1].min()) / window.height
+
+
+def test_default_camera_frames_the_characters_follows_them_and_shows_the_yard_on_a_key(pyglet_window):
+    from twig_ecs.graphics.camera import action_point
+
+    key = pyglet_window.key
+    window = open_window("schoolyard", size=SIZE, headless=True)
+    try:
+        window.frame(elapsed=1 / 60)
+        viewer = window.viewer
+        scene = viewer.scene
+        assert 0.22 < picture_share(window, "parent") < 0.45  # the tallest: about a third of the height
+        for name in ("parent", "big_child", "small_child"):
+            px = viewer.camera.project(scene.entity(name).position, window.width, window.height)[0]
+            assert 0 < px[0] < window.width and 0 < px[1] < window.height
+
+        # the action moves off: everyone walks 6 m along x; the camera goes with them
+        start = viewer.camera.target.copy()
+        for name in ("parent", "big_child", "small_child", "ragdoll"):
+            scene.entity(name).translate((6.0, 0.0, 0.0))
+        for _ in range(30):
+            window.frame(elapsed=0.2)
+        centre = action_point(scene)
+        assert viewer.camera.target[0] - start[0] > 3.0
+        assert np.linalg.norm((viewer.camera.target - centre)[[0, 2]]) < 2.0
+
+        press_key(window, key.Y)  # the whole yard
+        window.frame(elapsed=1 / 60)
+        fences = [n for n in scene.entity_names if n.startswith("fence")]
+        fence = np.vstack([scene.entity(n).node_positions for n in fences])
+        px = viewer.camera.project(fence, window.width, window.height)
+        assert (px[:, 0] > 0).all() and (px[:, 0] < window.width).all()
+        assert (px[:, 1] > 0).all() and (px[:, 1] < window.height).all()
+        assert picture_share(window, "parent") < 0.15
+        press_key(window, key.Y)  # and back to the action
+        window.frame(elapsed=1 / 60)
+        assert 0.22 < picture_share(window, "parent") < 0.45
+    finally:
+        window.close()

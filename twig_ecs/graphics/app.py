@@ -30,7 +30,7 @@ from PIL import Image
 from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics import commands
-from twig_ecs.graphics.camera import CameraSpec, OrbitCamera
+from twig_ecs.graphics.camera import CameraSpec, OrbitCamera, action_point
 from twig_ecs.graphics.inspector_ui import imgui_available
 from twig_ecs.graphics.mouse_spring import MouseSpring
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
@@ -38,6 +38,8 @@ from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
 from twig_ecs.graphics.recorder import Recorder, RecordingError
 from twig_ecs.graphics.renderer import Renderer, solid_instances
 
+#: How fast the default camera catches up with the characters' centre (s to halve the gap).
+ACTION_HALF_LIFE = 1.0
 MAX_STEPS_PER_FRAME = 8  # a slower frame drops time instead of spiralling
 MAX_FRAME_GAP = 0.25  # s: a longer gap between frames (a drag of the window) counts as this long
 PAN_SPEED = 0.6  # WASD: distances per second
@@ -124,7 +126,7 @@ class Viewer:
         self.parameters = dict(parameters or {})
         self.scene = Scene.load(source, seed=seed, content=self.content, **self.parameters)
         self.scene.step(0)  # compile kernels and install systems now, not in the first frame
-        self.camera_spec = camera or CameraSpec()
+        self.camera_spec = camera or CameraSpec(mode="action")
         self.camera: OrbitCamera | None = None  # made at the first frame, when the aspect is known
         self.clock = FixedStepClock(self.scene.dt, max_steps=MAX_STEPS_PER_FRAME, max_elapsed=MAX_FRAME_GAP,
                                     paused=paused)  # fmt: skip
@@ -133,6 +135,9 @@ class Viewer:
         self.show_help = False
         self.show_inspector = False
         self.follow = self.camera_spec.mode == "follow"
+        #: the camera keeps the characters' centre in view (the default), until a pan or follow
+        self.follow_action = self.camera_spec.mode == "action"
+        self._yard_view: OrbitCamera | None = None  # the action view to go back to, while Y shows the yard
         self.selected: str | None = self.camera_spec.name if self.follow else None
         self.screenshot_dir = Path(screenshot_dir)
         self.screenshot_requested = False
@@ -235,12 +240,29 @@ class Viewer:
         dz = (key.W in self.keys_down) - (key.S in self.keys_down)
         if dx or dz:
             self.camera.pan(dx * PAN_SPEED * elapsed, dz * PAN_SPEED * elapsed)
-            self.follow = False
+            self.follow = self.follow_action = False
         turn = (key.E in self.keys_down) - (key.Q in self.keys_down)
         if turn:
             self.camera.orbit(turn * TURN_SPEED * elapsed, 0.0)
         if self.follow and self.scene.has_entity(self.selected):
             self.camera.follow(self.scene.entity(self.selected).position, max(elapsed, 1e-3))
+        elif self.follow_action and self._yard_view is None:
+            centre = action_point(self.scene)
+            if centre is not None:  # slower than following one character: the centre jumps about
+                self.camera.follow(centre, max(elapsed, 1e-3), half_life=ACTION_HALF_LIFE)
+
+    def toggle_yard(self) -> None:
+        """Y: the whole scene in view; again: back to the view before."""
+        if self.camera is None:
+            return
+        if self._yard_view is not None:
+            self.camera, self._yard_view = self._yard_view, None
+            self.say("back to the action" if self.follow_action else "back", 1.5)
+            return
+        self._yard_view = self.camera
+        aspect = self.window_size[0] / max(1, self.window_size[1])
+        self.camera = CameraSpec(yaw=self.camera.yaw, pitch=self.camera.pitch).make(self.scene, aspect)
+        self.say("the whole scene (Y: back)", 1.5)
 
     # -- characters -------------------------------------------------------------------
 
@@ -336,6 +358,7 @@ class Viewer:
             key.BRACKETRIGHT: "faster",
             key.V: "record",
             key.BACKSPACE: "clear",
+            key.Y: "yard",
         }.get(symbol)
         digits = (key._1, key._2, key._3, key._4, key._5, key._6, key._7, key._8, key._9)
         if action is None and symbol in digits:
@@ -360,6 +383,8 @@ class Viewer:
             self.change_time_scale(-1 if action == "slower" else 1)
         elif action == "record":
             self.record_requested = True  # started or stopped when the frame is drawn (its size)
+        elif action == "yard":
+            self.toggle_yard()
         elif action == "clear":
             self.command_target, self.selected, self.follow = None, None, False
             self.say("selection cleared", 1.5)
@@ -497,7 +522,7 @@ class Viewer:
         if pan:
             per_pixel = 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / max(1, window_height)
             self.camera.pan_screen(dx * per_pixel, dy * per_pixel)
-            self.follow = False
+            self.follow = self.follow_action = False
         elif buttons & mouse.LEFT:
             self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, -dy * ORBIT_DEG_PER_PIXEL)
 
@@ -788,6 +813,7 @@ def _window_class(window_module):
                 self.first_step = time.perf_counter()
             fb_size = self.get_framebuffer_size()
             scale = fb_size[0] / max(1, self.width)  # HiDPI: framebuffer pixels per window unit
+            self.viewer.window_size = (self.width, self.height)
             self.viewer.draw(self.renderer, fb_size, scale)
             self.renderer.present(self.ctx.screen, fb_size)
             error = self.ctx.error  # read (and so clear) it: pyglet's GL checks would trip on it
