@@ -356,3 +356,31 @@ def test_default_camera_frames_the_characters_follows_them_and_shows_the_yard_on
         assert 0.22 < picture_share(window, "parent") < 0.45
     finally:
         window.close()
+
+
+FALLBACK = """
+import sys
+sys.modules["imgui_bundle"] = None  # as if the optional 'window' extra were not installed
+import numpy as np
+from twig_ecs.graphics.app import load_pyglet_window, open_window
+key = load_pyglet_window(headless=True).key
+window = open_window("schoolyard", size=(480, 270), headless=True)
+window.frame(elapsed=1 / 60)
+plain = window.read_frame().astype(np.int16)
+window.dispatch_event("on_key_press", key.F1, 0)
+window.frame(elapsed=0.0)
+covered = (np.abs(window.read_frame().astype(np.int16) - plain)[:60, :150].sum(axis=2) > 40).mean()
+print("ui", window.viewer.ui, "covered", round(float(covered), 2))
+window.close()
+"""
+
+
+def test_the_window_keeps_its_text_inspector_without_imgui_bundle():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", FALLBACK], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    words = done.stdout.split()
+    assert words[:2] == ["ui", "None"]  # no ImGui, no error
+    assert float(words[-1]) > 0.3  # the text inspector panel covers the top-left corner

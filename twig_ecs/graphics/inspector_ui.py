@@ -21,7 +21,7 @@ but an OpenGL context to draw into (:mod:`twig_ecs.graphics.imgui_gl` draws it w
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 from collections import deque
 from pathlib import Path
 
@@ -39,8 +39,12 @@ HISTORY_EVERY = 0.1
 
 
 def imgui_available() -> bool:
-    """Can imgui-bundle be imported (the optional ``window`` extra)?"""
-    return importlib.util.find_spec("imgui_bundle") is not None
+    """Can imgui-bundle be imported (the optional ``window`` extra)? Asked at the first F1 only."""
+    try:
+        importlib.import_module("imgui_bundle")
+    except ImportError:
+        return False
+    return True
 
 
 def _activations(scene, name: str) -> str:

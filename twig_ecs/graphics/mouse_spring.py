@@ -9,9 +9,11 @@ the drag gave it: a throw.
 The spring is stiffer for a light part of a heavy body (a hand of a child), so that
 pulling a hand moves the child, not just the hand; its pull is capped for stability.
 
-A yank hurts: the spring's stretch energy (1/2 k d^2, J) is fed to the body's pain sensor
-the way an impact is (the sensor's own threshold and gain, a ``pain`` event), so the
-characters' pain reactions (flinching, anxiety, withdrawing) follow as from a blow.
+A yank hurts: the spring's stretch energy (1/2 k d^2, J) goes to the body's pain sensor
+as a blow of that energy would, with the sensor's own threshold and gain, for as long as
+the stretch lasts (gain x energy per second while it is above the threshold) and with a
+``pain`` event (at most every PAIN_EVENT_EVERY s), so the characters' pain reactions
+(the withdraw reflex) follow as from a blow. A gentle drag stays under the threshold.
 """
 
 from __future__ import annotations
@@ -29,6 +31,9 @@ BASE_OMEGA = 14.0
 MAX_OMEGA = 36.0
 #: Damping ratio: just under critical, so a dragged part follows without ringing.
 DAMPING = 0.9
+#: While a yank goes on hurting, a ``pain`` event at most this often (s): the reflexes restart
+#: on each, as after a fresh blow, without an event every step.
+PAIN_EVENT_EVERY = 0.25
 
 
 class MouseSpring(System):
@@ -44,6 +49,7 @@ class MouseSpring(System):
         self.force = 0.0  # N: the pull of the last step (the window shows it)
         self.stretch_energy = 0.0  # J: 1/2 k d^2 of the last step
         self.omega = BASE_OMEGA
+        self._next_pain_event = -math.inf  # simulated time
 
     @property
     def holding(self) -> bool:
@@ -67,6 +73,7 @@ class MouseSpring(System):
 
     def let_go(self) -> None:
         """Stop pulling: the part keeps its velocity (a throw)."""
+        self._next_pain_event = -math.inf
         self.row, self.body, self.part = None, None, ""
         self.force = self.stretch_energy = 0.0
 
@@ -96,6 +103,10 @@ class MouseSpring(System):
         threshold = float(bodies.pain_threshold[b])
         if not math.isfinite(threshold) or energy < threshold:
             return
-        bodies.pain[b] += bodies.pain_gain[b] * energy * self.scene.dt  # per second of yanking
-        # the hand of no body pulled: the body is its own source
-        self.scene.emit(Pain(handle.entity, self.part, handle.entity, energy, float(bodies.pain[b])))
+        # a held stretch is a blow of that energy every second: the pain grows while it lasts
+        bodies.pain[b] += bodies.pain_gain[b] * energy * self.scene.dt
+        now = self.scene.time
+        if now >= self._next_pain_event:
+            self._next_pain_event = now + PAIN_EVENT_EVERY
+            # no body's hand pulled: the body is its own source (withdraw backs off where it faces from)
+            self.scene.emit(Pain(handle.entity, self.part, handle.entity, energy, float(bodies.pain[b])))
