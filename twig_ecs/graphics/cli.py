@@ -34,8 +34,8 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
     p.add_argument("--fps", type=float, default=None,
                    help="frames per second of a GIF/MP4 (default 15 for GIF, 30 for MP4)")  # fmt: skip
     p.add_argument("--camera", default="auto", metavar="SPEC",
-                   help="auto (frame the whole scene), follow:NAME, orbit:YAW,PITCH[,DIST], "
-                   "or EX,EY,EZ[@TX,TY,TZ] (eye position and target in metres)")  # fmt: skip
+                   help="auto (frame the whole scene), action (the characters), follow:NAME, "
+                   "orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ] (eye and target, m)")  # fmt: skip
     p.set_defaults(func=cmd_render)
 
 
