@@ -287,6 +287,9 @@ def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_w
         for _ in range(4):
             window.frame(elapsed=0.25)
         assert attachment.anxiety > 0.01  # the running child now frets
+        plotted = viewer.history.series("small_child")  # what the history window plots
+        assert {"anxiety", "pain", "play"} <= set(plotted)
+        assert plotted["anxiety"][0] == 0.0 and plotted["anxiety"][-1] == pytest.approx(attachment.anxiety)
 
         # write it back into the scene file
         bx0, by0, bx1, by1 = viewer.ui.rects["write"]

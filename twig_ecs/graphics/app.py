@@ -31,7 +31,7 @@ from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics import commands
 from twig_ecs.graphics.camera import CameraSpec, OrbitCamera, action_point
-from twig_ecs.graphics.inspector_ui import imgui_available
+from twig_ecs.graphics.inspector_ui import History, imgui_available
 from twig_ecs.graphics.mouse_spring import MouseSpring
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
 from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
@@ -168,6 +168,8 @@ class Viewer:
         #: whether the mouse button now held went down on it
         self.ui = None
         self._ui_held = False
+        #: the characters' last minute (the inspector's plots), kept whether or not it is shown
+        self.history = History()
         self._attach(self.scene)
 
     def _attach(self, scene) -> None:
@@ -611,9 +613,10 @@ class Viewer:
         if self.camera is None:
             self.camera = self.camera_spec.make(self.scene, size[0] / max(1, size[1]))
         self._note_outside_steps()
+        self.history.sample(self.scene)
         renderer.options.selected = self.selected
         renderer.options.attention = self.show_inspector  # the inspector brings the focus lines
-        renderer.options.extra_capsules = self.spring_line()
+        renderer.options.extra_capsules = self.markers()
         if self.show_inspector and self.ui is None and imgui_available():
             from twig_ecs.graphics.inspector_ui import InspectorUI
 
@@ -630,6 +633,28 @@ class Viewer:
         if self.recorder is not None:
             self.recorder.add(renderer.read_pixels(), self._elapsed)
         self.frames += 1
+
+    def markers(self) -> np.ndarray | None:
+        """What the mouse is doing, drawn in the scene: the spring, and a pin on a command's target."""
+        rows = [r for r in (self.spring_line(), self.target_pin()) if r is not None]
+        return np.concatenate(rows) if rows else None
+
+    def target_pin(self) -> np.ndarray | None:
+        """A cyan pin over the clicked command target (above a body's top, or standing on the ground)."""
+        target = self.command_target
+        if target is None or self.selected is None:
+            return None
+        if target.name is not None:
+            if not self.scene.has_entity(target.name):
+                return None
+            nodes = self.scene.entity(target.name).node_positions
+            top = nodes[np.argmax(nodes[:, 1])] + np.array([0.0, 0.2, 0.0])
+        else:
+            top = np.asarray(target.point, dtype=np.float64)
+        a, b = top[None, :], (top + np.array([0.0, 0.45, 0.0]))[None, :]
+        colour = np.array([[0.1, 0.85, 0.95, 1.0]])
+        return np.concatenate([solid_instances(a, b, np.array([0.02]), colour),
+                               solid_instances(b, b, np.array([0.07]), colour)])  # fmt: skip
 
     def spring_line(self) -> np.ndarray | None:
         """The mouse spring as a thin capsule from the held part to the cursor, white to red with its pull."""

@@ -111,7 +111,6 @@ class InspectorUI:
         io = imgui.get_io()
         io.set_ini_filename(None)  # no imgui.ini written into the user's folder
         self.renderer = ImguiRenderer(ctx, imgui)
-        self.history = History()
         self.tunables: list[tuning.Tunable] = []
         self._tunables_of = None  # the scene the sliders were made for
         self.rects: dict[str, tuple[float, float, float, float]] = {}  # widget label -> x0, y0, x1, y1
@@ -216,11 +215,10 @@ class InspectorUI:
 
     def _history(self, viewer, width: int, height: int) -> None:
         imgui = self.imgui
-        self.history.sample(viewer.scene)
         name = viewer.selected
         title = f"history: {name or 'select a character'}###history"
         if self._begin(title, (10, 20 + height * 0.32), (min(width - 20, 420), height * 0.4)):
-            series = self.history.series(name) if name else {}
+            series = viewer.history.series(name) if name else {}
             if not series:
                 imgui.text_unformatted("click a character (or its name above) to plot it")
             else:

@@ -9,11 +9,13 @@ the drag gave it: a throw.
 The spring is stiffer for a light part of a heavy body (a hand of a child), so that
 pulling a hand moves the child, not just the hand; its pull is capped for stability.
 
-A yank hurts: the spring's stretch energy (1/2 k d^2, J) goes to the body's pain sensor
-as a blow of that energy would, with the sensor's own threshold and gain, for as long as
-the stretch lasts (gain x energy per second while it is above the threshold) and with a
-``pain`` event (at most every PAIN_EVENT_EVERY s), so the characters' pain reactions
-(the withdraw reflex) follow as from a blow. A gentle drag stays under the threshold.
+A yank hurts. A blow's energy, to the pain sensor, is the kinetic energy of the impact;
+a yank's is the kinetic energy of the held part moving against the rest of its body,
+1/2 m |v_part - v_body|^2 (J). When that reaches the sensor's threshold it counts as a
+blow with the sensor's own gain and a ``pain`` event - at most one every
+PAIN_EVENT_EVERY s while the yank goes on - so the characters react as to a blow (the
+withdraw reflex). A pull that moves the whole body along hurts less than one that moves
+the part against it (and holding the hand of a child who runs off is a yank too).
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ class MouseSpring(System):
         self.part: str = ""
         self.target = np.zeros(3)
         self.force = 0.0  # N: the pull of the last step (the window shows it)
-        self.stretch_energy = 0.0  # J: 1/2 k d^2 of the last step
+        self.yank_energy = 0.0  # J: the held part's kinetic energy against its body, last step
         self.omega = BASE_OMEGA
         self._next_pain_event = -math.inf  # simulated time
 
@@ -65,7 +67,7 @@ class MouseSpring(System):
         self.omega = min(MAX_OMEGA, BASE_OMEGA * ratio**0.25)
         self.row, self.body, self.part = row, body, part
         self.target = np.asarray(target, dtype=np.float64).copy()
-        self.force = self.stretch_energy = 0.0
+        self.force = self.yank_energy = 0.0
 
     def move(self, target: np.ndarray) -> None:
         """Move the cursor end of the spring (m)."""
@@ -75,10 +77,10 @@ class MouseSpring(System):
         """Stop pulling: the part keeps its velocity (a throw)."""
         self._next_pain_event = -math.inf
         self.row, self.body, self.part = None, None, ""
-        self.force = self.stretch_energy = 0.0
+        self.force = self.yank_energy = 0.0
 
     def process(self, dt: float) -> None:
-        """Add the spring's acceleration to the held node; feel the stretch as pain."""
+        """Add the spring's acceleration to the held node; a yank is felt as a blow."""
         if self.row is None:
             return
         if not self.scene.has_entity(self.body):  # removed while held
@@ -92,21 +94,20 @@ class MouseSpring(System):
         n.acc[i] += acc
         mass = float(n.mass[i])
         self.force = mass * float(np.linalg.norm(acc))
-        self.stretch_energy = 0.5 * mass * w * w * float(stretch @ stretch)
-        self._feel(self.stretch_energy)
-
-    def _feel(self, energy: float) -> None:
-        """The stretch as an impact on the held body's pain sensor (sense.feel_impacts' rule)."""
-        bodies = self.scene.state.bodies
         handle = self.scene.entity(self.body)
+        relative = velocity - handle.velocity  # against the body's centre of mass
+        self.yank_energy = 0.5 * mass * float(relative @ relative)
+        self._feel(handle, self.yank_energy)
+
+    def _feel(self, handle, energy: float) -> None:
+        """A yank at or above the pain threshold as a blow (sense.feel_impacts' rule)."""
+        bodies = self.scene.state.bodies
         b = handle.body.index
         threshold = float(bodies.pain_threshold[b])
-        if not math.isfinite(threshold) or energy < threshold:
-            return
-        # a held stretch is a blow of that energy every second: the pain grows while it lasts
-        bodies.pain[b] += bodies.pain_gain[b] * energy * self.scene.dt
         now = self.scene.time
-        if now >= self._next_pain_event:
-            self._next_pain_event = now + PAIN_EVENT_EVERY
-            # no body's hand pulled: the body is its own source (withdraw backs off where it faces from)
-            self.scene.emit(Pain(handle.entity, self.part, handle.entity, energy, float(bodies.pain[b])))
+        if not math.isfinite(threshold) or energy < threshold or now < self._next_pain_event:
+            return
+        self._next_pain_event = now + PAIN_EVENT_EVERY
+        bodies.pain[b] += bodies.pain_gain[b] * energy
+        # no body's hand pulled: the body is its own source (withdraw backs off where it faces from)
+        self.scene.emit(Pain(handle.entity, self.part, handle.entity, energy, float(bodies.pain[b])))
