@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twig_ecs import Scene
 from twig_ecs.graphics import commands
 from twig_ecs.graphics.app import load_pyglet_window, open_window
 from twig_ecs.graphics.camera import CameraSpec
@@ -74,6 +75,15 @@ def test_dragging_the_ball_moves_it_and_letting_go_throws_it(pyglet_window):
         moved = ball.position - start
         assert np.linalg.norm(moved) > 0.5  # pulled along after the cursor
         assert moved[1] > 0.2  # up the screen is up in the world: off the ground
+
+        # a snapshot mid-drag (the server's checkpoint under twig serve --window) restores, spring and all
+        restored = Scene.restore(viewer.scene.snapshot())
+        try:
+            spring = restored.schedule.stages["mouse_spring"].system
+            assert spring.holding and spring.body == "ball"
+        finally:
+            restored.close()
+            viewer.scene.activate()
 
         window.dispatch_event("on_mouse_release", 0, 0, mouse.LEFT, 0)
         window.frame(elapsed=1 / 60)
@@ -244,7 +254,6 @@ def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_w
 
     import esper
 
-    from twig_ecs import Scene
     from twig_ecs.components import Attachment
     from twig_ecs.graphics.tuning import builtin_scene
 

@@ -32,11 +32,11 @@ from twig_ecs.errors import TwigError
 from twig_ecs.graphics import commands
 from twig_ecs.graphics.camera import CameraSpec, OrbitCamera, action_point
 from twig_ecs.graphics.inspector_ui import History, imgui_available
-from twig_ecs.graphics.mouse_spring import MouseSpring
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
 from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
 from twig_ecs.graphics.recorder import Recorder, RecordingError
 from twig_ecs.graphics.renderer import Renderer, solid_instances
+from twig_ecs.perturb import MouseSpring
 
 #: How fast the default camera catches up with the characters' centre (s to halve the gap).
 ACTION_HALF_LIFE = 1.0

@@ -1,7 +1,11 @@
 """The mouse spring: a damped spring from a grabbed body part to the cursor.
 
-:class:`MouseSpring` is a system the window adds to its scene. While the mouse holds a
-node it pulls that node towards ``target`` every step, before the Verlet step, as a
+:class:`MouseSpring` is a system the play window adds to its scene. It lives here, in
+the physics layer, rather than beside the window: it is part of the scene's schedule, so
+scene snapshots (the server's checkpoints under ``twig serve --window``) hold it, and a
+snapshot loads only classes outside the input/output modules such as ``twig_ecs.graphics``.
+
+While the mouse holds a node it pulls that node towards ``target`` every step, before the Verlet step, as a
 force: the rest of the body follows through the constraints and the behaviours react as
 they would to any push. Letting go simply stops the pull, so the part keeps the velocity
 the drag gave it: a throw.
