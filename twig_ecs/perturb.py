@@ -5,13 +5,13 @@ the physics layer, rather than beside the window: it is part of the scene's sche
 scene snapshots (the server's checkpoints under ``twig serve --window``) hold it, and a
 snapshot loads only classes outside the input/output modules such as ``twig_ecs.graphics``.
 
-While the mouse holds a node it pulls that node towards ``target`` every step, before the Verlet step, as a
-force: the rest of the body follows through the constraints and the behaviours react as
-they would to any push. Letting go simply stops the pull, so the part keeps the velocity
-the drag gave it: a throw.
+While the mouse holds a node it pulls that node towards ``target`` every step, before
+the Verlet step, as a force: the rest of the body follows through the constraints and
+the behaviours react as they would to any push. Letting go simply stops the pull, so
+the part keeps the velocity the drag gave it: a throw.
 
 The spring is stiffer for a light part of a heavy body (a hand of a child), so that
-pulling a hand moves the child, not just the hand; its pull is capped for stability.
+pulling a hand moves the child, not just the hand; its stiffness is capped for stability.
 
 A yank hurts. A blow's energy, to the pain sensor, is the kinetic energy of the impact;
 a yank's is the kinetic energy of the held part moving against the rest of its body,
