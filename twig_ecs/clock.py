@@ -40,6 +40,12 @@ class FixedStepClock:
         self.paused = paused
         self.accumulator = 0.0  # simulated seconds owed, less than one step after advance()
         self.dropped = 0.0  # simulated seconds given up to catch-up limits, in all
+        #: wall seconds counted while running (after the ``max_elapsed`` cap), in all, and the
+        #: simulated seconds they were worth at the scale of the moment: with ``paid`` steps,
+        #: ``paid * dt + accumulator + dropped == simulated_wall`` (the slow-motion check)
+        self.wall = 0.0
+        self.simulated_wall = 0.0
+        self.paid = 0  # steps paid out by advance(), in all (single steps included)
         self._single = 0
 
     @property
@@ -58,10 +64,14 @@ class FixedStepClock:
         if self.paused:
             self.accumulator = 0.0
             steps, self._single = self._single, 0
+            self.paid += steps
             return steps
         if self.max_elapsed is not None:
             elapsed = min(elapsed, self.max_elapsed)
-        self.accumulator += max(0.0, elapsed) * self._scale
+        elapsed = max(0.0, elapsed)
+        self.wall += elapsed
+        self.simulated_wall += elapsed * self._scale
+        self.accumulator += elapsed * self._scale
         # a hair of tolerance: 0.25 s then 0.05 s of a 0.1 s clock are 3 steps, not 2 and a
         # remainder of 0.0999999... left by rounding
         steps = int(self.accumulator / self.dt + _ROUNDING)
@@ -70,6 +80,7 @@ class FixedStepClock:
             steps = self.max_steps
             self.accumulator = steps * self.dt  # drop the time we cannot catch up with
         self.accumulator = max(0.0, self.accumulator - steps * self.dt)
+        self.paid += steps
         return steps
 
     def single_step(self) -> None:

@@ -29,10 +29,17 @@ from PIL import Image
 
 from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
-from twig_ecs.graphics.camera import CameraSpec, OrbitCamera
+from twig_ecs.graphics import commands
+from twig_ecs.graphics.camera import CameraSpec, OrbitCamera, action_point
+from twig_ecs.graphics.inspector_ui import History, imgui_available
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
-from twig_ecs.graphics.renderer import Renderer
+from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
+from twig_ecs.graphics.recorder import Recorder, RecordingError
+from twig_ecs.graphics.renderer import Renderer, solid_instances
+from twig_ecs.perturb import MouseSpring
 
+#: How fast the default camera catches up with the characters' centre (s to halve the gap).
+ACTION_HALF_LIFE = 1.0
 MAX_STEPS_PER_FRAME = 8  # a slower frame drops time instead of spiralling
 MAX_FRAME_GAP = 0.25  # s: a longer gap between frames (a drag of the window) counts as this long
 PAN_SPEED = 0.6  # WASD: distances per second
@@ -43,6 +50,13 @@ LOADING_FRAME_S = 0.05  # while the kernels compile, about 20 progress frames a 
 #: frames take at most this share of one core (they rest in between): slow motion that leaves
 #: most of the cores to the compiling workers (resting only 30 ms a frame, the compile took 40% longer).
 INTERIM_SHARE = 0.3
+#: The time scales [ and ] step through (simulated seconds per wall second).
+TIME_SCALES = (0.25, 0.5, 1.0, 2.0, 4.0)
+#: A left press that moves less than this (pixels) before release is a click, not a drag.
+CLICK_PIXELS = 4
+#: The mouse spring's line: radius (m), and the pull (N) at which it turns fully red.
+SPRING_RADIUS = 0.012
+SPRING_RED_AT = 200.0
 
 
 class WindowError(TwigError):
@@ -66,6 +80,17 @@ def load_pyglet_window(headless: bool = False):
     pyglet.options["shadow_window"] = False  # no hidden GLX window when there is no X server
     pyglet.options["headless"] = headless
     return importlib.import_module("pyglet.window")
+
+
+@dataclass
+class Press:
+    """A left mouse press: where (window pixels), and the body part or ground point under it."""
+
+    x: float
+    y: float
+    pick: Pick | None
+    ground: np.ndarray | None
+    moved: bool = False
 
 
 @dataclass
@@ -101,7 +126,7 @@ class Viewer:
         self.parameters = dict(parameters or {})
         self.scene = Scene.load(source, seed=seed, content=self.content, **self.parameters)
         self.scene.step(0)  # compile kernels and install systems now, not in the first frame
-        self.camera_spec = camera or CameraSpec()
+        self.camera_spec = camera or CameraSpec(mode="action")
         self.camera: OrbitCamera | None = None  # made at the first frame, when the aspect is known
         self.clock = FixedStepClock(self.scene.dt, max_steps=MAX_STEPS_PER_FRAME, max_elapsed=MAX_FRAME_GAP,
                                     paused=paused)  # fmt: skip
@@ -110,9 +135,13 @@ class Viewer:
         self.show_help = False
         self.show_inspector = False
         self.follow = self.camera_spec.mode == "follow"
+        #: the camera keeps the characters' centre in view (the default), until a pan or follow
+        self.follow_action = self.camera_spec.mode == "action"
+        self._yard_view: OrbitCamera | None = None  # the action view to go back to, while Y shows the yard
         self.selected: str | None = self.camera_spec.name if self.follow else None
         self.screenshot_dir = Path(screenshot_dir)
         self.screenshot_requested = False
+        self.record_requested = False
         self.last_screenshot: Path | None = None
         self.message = ""
         self.message_until = 0.0
@@ -126,6 +155,36 @@ class Viewer:
         self._panel_cache: dict[str, tuple[tuple, Image.Image]] = {}
         #: a panel drawn at the top centre (the kernel compile's progress while it runs), or None
         self.notice: Image.Image | None = None
+        self.window_size = (1280, 720)  # window units, for turning cursor positions into rays
+        self.time_scale = 1.0
+        self.recorder: Recorder | None = None
+        self.last_recording: Path | None = None
+        self._elapsed = 0.0  # wall seconds before the frame being drawn (the recorder's clock)
+        self.command_target: commands.Target | None = None
+        self.goal_log: list[str] = []  # goal events, newest last ("ann: hug done")
+        self._press: Press | None = None
+        self._grab_plane: tuple[np.ndarray, np.ndarray] | None = None
+        #: the ImGui inspector (made at the first F1 when imgui-bundle is installed), and
+        #: whether the mouse button now held went down on it
+        self.ui = None
+        self._ui_held = False
+        #: the characters' last minute (the inspector's plots), kept whether or not it is shown
+        self.history = History()
+        self._attach(self.scene)
+
+    def _attach(self, scene) -> None:
+        """Give a (new) scene the mouse spring and report its goal events in the status line."""
+        self.spring = scene.add_system(MouseSpring(), before="integrate")
+        scene.on("goal.done", self._goal_ended)
+        scene.on("goal.failed", self._goal_ended)
+
+    def _goal_ended(self, event) -> None:
+        name = self.scene.name_of(event.character) or "?"
+        why = f" ({event.reason})" if event.kind == "goal.failed" and event.reason else ""
+        line = f"{name}: {event.behavior} {event.kind.split('.')[1]}{why}"
+        self.goal_log.append(line)
+        del self.goal_log[:-50]
+        self.say(line, 5.0)
 
     # -- clock ------------------------------------------------------------------------
 
@@ -147,10 +206,24 @@ class Viewer:
     def accumulator(self, value: float) -> None:
         self.clock.accumulator = value
 
+    def set_time_scale(self, scale: float) -> None:
+        """Run at ``scale`` simulated seconds per wall second (one of TIME_SCALES from the keys)."""
+        self.clock.scale = scale
+        self.time_scale = self.clock.scale
+        # fast forward needs more steps per frame; slow motion keeps the usual cap
+        self.clock.max_steps = math.ceil(MAX_STEPS_PER_FRAME * max(1.0, self.time_scale))
+        self.say(f"time x{self.time_scale:g}", 1.5)
+
+    def change_time_scale(self, step: int) -> None:
+        """Step to the next slower (-1) or faster (+1) of TIME_SCALES."""
+        k = min(range(len(TIME_SCALES)), key=lambda i: abs(TIME_SCALES[i] - self.time_scale))
+        self.set_time_scale(TIME_SCALES[min(len(TIME_SCALES) - 1, max(0, k + step))])
+
     def advance(self, elapsed: float) -> int:
         """Run as many fixed steps as ``elapsed`` seconds of wall time allow; return them."""
         if self.restart_clock:  # the time spent loading a scene is not simulated time
             elapsed, self.restart_clock = 0.0, False
+        self._elapsed = elapsed
         self._move_camera(elapsed)
         steps = self.clock.advance(elapsed)
         if steps:
@@ -169,12 +242,29 @@ class Viewer:
         dz = (key.W in self.keys_down) - (key.S in self.keys_down)
         if dx or dz:
             self.camera.pan(dx * PAN_SPEED * elapsed, dz * PAN_SPEED * elapsed)
-            self.follow = False
+            self.follow = self.follow_action = False
         turn = (key.E in self.keys_down) - (key.Q in self.keys_down)
         if turn:
             self.camera.orbit(turn * TURN_SPEED * elapsed, 0.0)
         if self.follow and self.scene.has_entity(self.selected):
             self.camera.follow(self.scene.entity(self.selected).position, max(elapsed, 1e-3))
+        elif self.follow_action and self._yard_view is None:
+            centre = action_point(self.scene)
+            if centre is not None:  # slower than following one character: the centre jumps about
+                self.camera.follow(centre, max(elapsed, 1e-3), half_life=ACTION_HALF_LIFE)
+
+    def toggle_yard(self) -> None:
+        """Y: the whole scene in view; again: back to the view before."""
+        if self.camera is None:
+            return
+        if self._yard_view is not None:
+            self.camera, self._yard_view = self._yard_view, None
+            self.say("back to the action" if self.follow_action else "back", 1.5)
+            return
+        self._yard_view = self.camera
+        aspect = self.window_size[0] / max(1, self.window_size[1])
+        self.camera = CameraSpec(yaw=self.camera.yaw, pitch=self.camera.pitch).make(self.scene, aspect)
+        self.say("the whole scene (Y: back)", 1.5)
 
     # -- characters -------------------------------------------------------------------
 
@@ -222,6 +312,8 @@ class Viewer:
             return
         self.scene.close()
         self.scene = fresh
+        self._attach(fresh)
+        self._press, self.command_target = None, None
         self.clock.reset()
         self.restart_clock = True
         if self.selected not in fresh.entity_names:
@@ -264,7 +356,16 @@ class Viewer:
             key.TAB: "select",
             key.F: "follow",
             key.L: "hidden_links",
+            key.BRACKETLEFT: "slower",
+            key.BRACKETRIGHT: "faster",
+            key.V: "record",
+            key.BACKSPACE: "clear",
+            key.Y: "yard",
         }.get(symbol)
+        digits = (key._1, key._2, key._3, key._4, key._5, key._6, key._7, key._8, key._9)
+        if action is None and symbol in digits:
+            action = "command"
+            self.command(digits.index(symbol) + 1)
         if action == "pause":
             self.paused = not self.paused
             self.say("paused" if self.paused else "running", 1.0)
@@ -280,6 +381,15 @@ class Viewer:
             self.screenshot_requested = True
         elif action == "select":
             self.cycle_selection(-1 if modifiers & key.MOD_SHIFT else 1)
+        elif action in ("slower", "faster"):
+            self.change_time_scale(-1 if action == "slower" else 1)
+        elif action == "record":
+            self.record_requested = True  # started or stopped when the frame is drawn (its size)
+        elif action == "yard":
+            self.toggle_yard()
+        elif action == "clear":
+            self.command_target, self.selected, self.follow = None, None, False
+            self.say("selection cleared", 1.5)
         elif action == "follow":
             if self.selected is None:
                 self.cycle_selection()
@@ -290,10 +400,123 @@ class Viewer:
     def key_release(self, symbol: int) -> None:
         self.keys_down.discard(symbol)
 
-    def mouse_drag(self, dx: float, dy: float, buttons: int, modifiers: int, window_height: int,
-                   mouse) -> None:  # fmt: skip
-        """Left drag orbits; right (or middle, or shift+left) drag pans with the cursor."""
+    def _ray(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        return cursor_ray(self.camera, x, y, self.window_size)
+
+    def _ui_shown(self) -> bool:
+        return self.show_inspector and self.ui is not None
+
+    def mouse_motion(self, x: float, y: float) -> None:
+        """The cursor moved with no button down: the inspector follows it (hover, scrolling)."""
+        if self._ui_shown():
+            self.ui.mouse_move(x, y, self.window_size[1])
+
+    def mouse_press(self, x: float, y: float, button: int, modifiers: int, mouse) -> None:
+        """A left press remembers what is under the cursor: a drag grabs it, a click selects it.
+        A press on the inspector is the inspector's."""
+        if self._ui_shown() and self.ui.covers(x, y, self.window_size[1]):
+            self._ui_held = True
+            index = {mouse.LEFT: 0, mouse.RIGHT: 1, mouse.MIDDLE: 2}.get(button, 0)
+            self.ui.mouse_button(x, y, self.window_size[1], True, index)
+            return
+        if self.camera is None or button != mouse.LEFT or modifiers & self._key.MOD_SHIFT:
+            return
+        eye, direction = self._ray(x, y)
+        self._press = Press(x, y, pick_node(self.scene, eye, direction), ground_point(eye, direction))
+
+    def _start_grab(self, pick: Pick) -> None:
+        """Hold the picked part on the mouse spring; it is dragged in the plane facing the camera."""
+        _, _, back = self.camera.basis()
+        self._grab_plane = (pick.point.copy(), back)
+        self.spring.hold(pick.body, pick.node, pick.row, pick.point)
+        self.say(f"grabbed {pick.body}.{pick.node}", 2.0)
+
+    def _drag_point(self, x: float, y: float) -> np.ndarray | None:
+        """The cursor in the grab plane (None if the ray runs parallel to it)."""
+        eye, direction = self._ray(x, y)
+        point, normal = self._grab_plane
+        facing = float(direction @ normal)
+        if abs(facing) < 1e-6:
+            return None
+        return eye + float((point - eye) @ normal) / facing * direction
+
+    def mouse_release(self, x: float, y: float, button: int, modifiers: int, mouse) -> None:
+        """Let go of a held part (it flies on: a throw), or treat a left click as a selection."""
+        if self._ui_held:
+            self._ui_held = False
+            index = {mouse.LEFT: 0, mouse.RIGHT: 1, mouse.MIDDLE: 2}.get(button, 0)
+            self.ui.mouse_button(x, y, self.window_size[1], False, index)
+            return
+        press, self._press = self._press, None
+        if self.spring.holding:
+            name, part = self.spring.body, self.spring.part
+            self.spring.let_go()
+            if self.scene.has_entity(name):
+                speed = float(np.linalg.norm(self.scene.entity(name).node_velocity(part)))
+                self.say(f"let go of {name}.{part} at {speed:.1f} m/s", 2.5)
+            return
+        if press is None or button != mouse.LEFT or press.moved:
+            return
+        self.click(press)
+
+    def click(self, press: Press) -> None:
+        """Select a character, or (one selected) make the clicked body or ground point its target."""
+        actor = self.selected if self.selected in self.characters() else None
+        if press.pick is not None:
+            name = press.pick.body
+            if actor is None or name == actor:
+                if name in self.characters():
+                    self.selected, self.command_target = name, None
+                    self.say(f"selected {name}: click a target", 3.0)
+                else:
+                    self.say(f"{name}: select a character first (click one, or Tab)", 3.0)
+                return
+            self.command_target = commands.Target(name=name)
+        elif press.ground is not None and actor is not None:
+            self.command_target = commands.ground_target(press.ground)
+        else:
+            return
+        self.say(f"{actor} -> {self.command_target.describe()}: pick a command (1-7)", 4.0)
+
+    def command(self, number: int) -> object:
+        """Carry out menu command ``number`` for the selected character and target; returns the goal."""
+        if self.selected is None or self.command_target is None:
+            self.say("select a character, click a target, then press 1-7", 3.0)
+            return None
+        offered = {k: (label, behaviour) for k, label, behaviour in commands.available(self.scene)}
+        if number not in offered:
+            self.say(f"no command {number} here", 2.0)
+            return None
+        label, behaviour = offered[number]
+        try:
+            goal = commands.issue(self.scene, self.selected, behaviour, self.command_target)
+        except (TwigError, KeyError) as exc:
+            self.say(f"{label}: {exc}", 5.0)
+            return None
+        self.say(f"{self.selected}: {label} {self.command_target.describe()}", 3.0)
+        self.command_target = None
+        return goal
+
+    def mouse_drag(self, x: float, y: float, dx: float, dy: float, buttons: int, modifiers: int,
+                   window_height: int, mouse) -> None:  # fmt: skip
+        """Left drag on a body part pulls it on the mouse spring; elsewhere left drag orbits;
+        right (or middle, or shift+left) drag pans with the cursor."""
+        if self._ui_held:
+            self.ui.mouse_move(x, y, self.window_size[1])
+            return
         if self.camera is None:
+            return
+        press = self._press
+        if press is not None and (abs(x - press.x) + abs(y - press.y) >= CLICK_PIXELS or self.spring.holding):
+            press.moved = True
+        if press is not None and press.pick is not None and buttons & mouse.LEFT:
+            if not press.moved:
+                return
+            if not self.spring.holding:
+                self._start_grab(press.pick)
+            target = self._drag_point(x, y)
+            if target is not None:
+                self.spring.move(target)
             return
         pan = buttons & (mouse.RIGHT | mouse.MIDDLE) or (
             buttons & mouse.LEFT and modifiers & self._key.MOD_SHIFT
@@ -301,11 +524,16 @@ class Viewer:
         if pan:
             per_pixel = 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / max(1, window_height)
             self.camera.pan_screen(dx * per_pixel, dy * per_pixel)
-            self.follow = False
+            self.follow = self.follow_action = False
         elif buttons & mouse.LEFT:
             self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, -dy * ORBIT_DEG_PER_PIXEL)
 
-    def scroll(self, amount: float) -> None:
+    def scroll(self, amount: float, x: float | None = None, y: float | None = None) -> None:
+        """The wheel zooms, or scrolls the inspector under the cursor."""
+        if self._ui_shown() and x is not None and self.ui.covers(x, y, self.window_size[1]):
+            self.ui.mouse_move(x, y, self.window_size[1])
+            self.ui.scroll(amount)
+            return
         if self.camera is not None:
             self.camera.zoom(0.88**amount)
 
@@ -330,6 +558,12 @@ class Viewer:
             sim = f"sim {self.stats.step_ms:5.2f} ms/step"
         parts = [f"fps {fps:5.1f}", sim, f"t {self.scene.time:7.2f} s",
                  "PAUSED" if self.paused else "running"]  # fmt: skip
+        if self.time_scale != 1.0:
+            parts.append(f"time x{self.time_scale:g}")
+        if self.recorder is not None:
+            parts.append(f"REC {self.recorder.clock:4.1f} s")
+        if self.spring.holding:  # the strength of the pull, as the spring line's colour shows it
+            parts.append(f"pull {self.spring.body}.{self.spring.part} {self.spring.force:4.0f} N")
         if self.selected:
             parts.append(f"{self.selected}{' (follow)' if self.follow else ''}")
         if self.message and time.monotonic() < self.message_until:
@@ -351,7 +585,7 @@ class Viewer:
         if self.show_help:
             image = self._panel("help", (scale,), lambda: text_panel(HELP_LINES, scale, title="twig play"))
             out.append(("help", image, (width - image.size[0]) // 2, (height - image.size[1]) // 2))
-        if self.show_inspector:
+        if self.show_inspector and self.ui is None:  # the text inspector, without imgui-bundle
             lines = tuple(inspector_lines(self.scene, self.selected))
             image = self._panel(
                 "inspector",
@@ -361,6 +595,10 @@ class Viewer:
             out.append(("inspector", image, margin, margin))
         if self.notice is not None:
             out.append(("notice", self.notice, (width - self.notice.size[0]) // 2, margin))
+        if self.command_target is not None and self.selected is not None:
+            lines = tuple(commands.menu_lines(self.scene, self.selected, self.command_target))
+            image = self._panel("commands", (scale, lines), lambda: text_panel(lines, scale, title="command"))
+            out.append(("commands", image, width - image.size[0] - margin, margin))
         return out
 
     def _panel(self, key: str, inputs: tuple, make) -> Image.Image:
@@ -375,15 +613,84 @@ class Viewer:
         if self.camera is None:
             self.camera = self.camera_spec.make(self.scene, size[0] / max(1, size[1]))
         self._note_outside_steps()
+        self.history.sample(self.scene)
         renderer.options.selected = self.selected
         renderer.options.attention = self.show_inspector  # the inspector brings the focus lines
+        renderer.options.extra_capsules = self.markers()
+        if self.show_inspector and self.ui is None and imgui_available():
+            from twig_ecs.graphics.inspector_ui import InspectorUI
+
+            self.ui = InspectorUI(renderer.ctx)
         renderer.render(self.scene, self.camera, size, self.alpha, tuple(self.panels(size, scale)))
+        if self._ui_shown():
+            self.ui.draw(self, renderer.frame, size, self.window_size, self._elapsed or 1 / 60)
         if self.screenshot_requested:
             self.screenshot_requested = False
             self.save_screenshot(renderer)
+        if self.record_requested:
+            self.record_requested = False
+            self.toggle_recording(size)
+        if self.recorder is not None:
+            self.recorder.add(renderer.read_pixels(), self._elapsed)
         self.frames += 1
 
+    def markers(self) -> np.ndarray | None:
+        """What the mouse is doing, drawn in the scene: the spring, and a pin on a command's target."""
+        rows = [r for r in (self.spring_line(), self.target_pin()) if r is not None]
+        return np.concatenate(rows) if rows else None
+
+    def target_pin(self) -> np.ndarray | None:
+        """A cyan pin over the clicked command target (above a body's top, or standing on the ground)."""
+        target = self.command_target
+        if target is None or self.selected is None:
+            return None
+        if target.name is not None:
+            if not self.scene.has_entity(target.name):
+                return None
+            nodes = self.scene.entity(target.name).node_positions
+            top = nodes[np.argmax(nodes[:, 1])] + np.array([0.0, 0.2, 0.0])
+        else:
+            top = np.asarray(target.point, dtype=np.float64)
+        a, b = top[None, :], (top + np.array([0.0, 0.45, 0.0]))[None, :]
+        colour = np.array([[0.1, 0.85, 0.95, 1.0]])
+        return np.concatenate([solid_instances(a, b, np.array([0.02]), colour),
+                               solid_instances(b, b, np.array([0.07]), colour)])  # fmt: skip
+
+    def spring_line(self) -> np.ndarray | None:
+        """The mouse spring as a thin capsule from the held part to the cursor, white to red with its pull."""
+        if not self.spring.holding:
+            return None
+        a = self.scene.state.nodes.pos[self.spring.row][None, :]
+        b = self.spring.target[None, :]
+        red = min(1.0, self.spring.force / SPRING_RED_AT)
+        colour = np.array([[1.0, 1.0 - 0.8 * red, 1.0 - 0.8 * red, 1.0]])
+        ends = solid_instances(b, b, np.array([2.5 * SPRING_RADIUS]), colour)  # a dot at the cursor
+        return np.concatenate([solid_instances(a, b, np.array([SPRING_RADIUS]), colour), ends])
+
+    def toggle_recording(self, size: tuple[int, int]) -> None:
+        """Start an MP4 of what the window shows (in ``screenshot_dir``), or finish the one running."""
+        if self.recorder is not None:
+            self.last_recording = self.recorder.close()
+            self.recorder = None
+            self.say(f"saved {self.last_recording}", 4.0)
+            return
+        self.screenshot_dir.mkdir(parents=True, exist_ok=True)
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        path = self.screenshot_dir / f"twig-{self.scene.name}-{stamp}-f{self.scene.frame:06d}.mp4"
+        try:
+            self.recorder = Recorder(path, size)
+        except (RecordingError, OSError) as exc:
+            self.say(f"cannot record: {exc}", 5.0)
+            return
+        self.say(f"recording {path.name} (V stops)", 2.0)
+
     def close(self) -> None:
+        if self.recorder is not None:  # a recording still running is finished, not lost
+            self.last_recording = self.recorder.close()
+            self.recorder = None
+        if self.ui is not None:
+            self.ui.release()
+            self.ui = None
         self.scene.close()
 
 
@@ -531,6 +838,7 @@ def _window_class(window_module):
                 self.first_step = time.perf_counter()
             fb_size = self.get_framebuffer_size()
             scale = fb_size[0] / max(1, self.width)  # HiDPI: framebuffer pixels per window unit
+            self.viewer.window_size = (self.width, self.height)
             self.viewer.draw(self.renderer, fb_size, scale)
             self.renderer.present(self.ctx.screen, fb_size)
             error = self.ctx.error  # read (and so clear) it: pyglet's GL checks would trip on it
@@ -618,13 +926,28 @@ def _window_class(window_module):
             if self.viewer is not None:
                 self.viewer.key_release(symbol)
 
+        def on_mouse_press(self, x, y, button, modifiers) -> None:
+            if self.viewer is not None:
+                self.viewer.window_size = (self.width, self.height)
+                self.viewer.mouse_press(x, y, button, modifiers, mouse)
+
+        def on_mouse_release(self, x, y, button, modifiers) -> None:
+            if self.viewer is not None:
+                self.viewer.mouse_release(x, y, button, modifiers, mouse)
+
         def on_mouse_drag(self, x, y, dx, dy, buttons, modifiers) -> None:
             if self.viewer is not None:
-                self.viewer.mouse_drag(dx, dy, buttons, modifiers, self.height, mouse)
+                self.viewer.window_size = (self.width, self.height)
+                self.viewer.mouse_drag(x, y, dx, dy, buttons, modifiers, self.height, mouse)
 
         def on_mouse_scroll(self, x, y, scroll_x, scroll_y) -> None:
             if self.viewer is not None:
-                self.viewer.scroll(scroll_y)
+                self.viewer.scroll(scroll_y, x, y)
+
+        def on_mouse_motion(self, x, y, dx, dy) -> None:
+            if self.viewer is not None:
+                self.viewer.window_size = (self.width, self.height)
+                self.viewer.mouse_motion(x, y)
 
         def on_resize(self, width: int, height: int) -> None:
             pass  # the renderer follows get_framebuffer_size() every frame

@@ -168,6 +168,37 @@ def scene_points(state) -> np.ndarray:
 DEFAULT_YAW = 205.0
 DEFAULT_PITCH = 32.0
 AUTO_YAW_RANGE = 60.0
+#: The ``action`` camera: a character fills this share of the picture's height.
+ACTION_HEIGHT_SHARE = 1.0 / 3.0
+#: How much more a character moving at 1 m/s weighs than one standing, in the action's centre.
+ACTION_SPEED_WEIGHT = 2.0
+
+
+def character_heights(scene) -> dict[str, float]:
+    """The characters of a scene (bodies with a head) and their standing heights (m)."""
+    out = {}
+    for name in scene.entity_names:
+        handle = scene.entity(name)
+        if "head" in handle.node_names:
+            out[name] = float(handle.body.height)
+    return out
+
+
+def action_point(scene) -> np.ndarray | None:
+    """Where the action is: the characters' centre on the ground, the moving ones weighing more.
+
+    None when the scene has no characters.
+    """
+    names = list(character_heights(scene))
+    if not names:
+        return None
+    points, weights = [], []
+    for name in names:
+        handle = scene.entity(name)
+        points.append(handle.position)
+        weights.append(1.0 + ACTION_SPEED_WEIGHT * float(np.linalg.norm(handle.velocity[[0, 2]])))
+    centre = np.average(np.array(points), axis=0, weights=np.array(weights))
+    return centre
 
 
 def _floats(text: str, count: int, spec: str) -> np.ndarray:
@@ -183,10 +214,11 @@ def _floats(text: str, count: int, spec: str) -> np.ndarray:
 
 @dataclass
 class CameraSpec:
-    """What ``--camera`` asked for: ``auto``, ``follow:NAME``, ``orbit:YAW,PITCH[,DIST]``
+    """What ``--camera`` asked for: ``auto`` (the whole scene), ``action`` (the characters, a
+    third of the picture high, at their centre), ``follow:NAME``, ``orbit:YAW,PITCH[,DIST]``
     or ``EX,EY,EZ[@TX,TY,TZ]`` (eye position, looking at the target, default the scene centre)."""
 
-    mode: str = "auto"  # auto | follow | orbit | eye
+    mode: str = "auto"  # auto | action | follow | orbit | eye
     name: str = ""
     yaw: float = DEFAULT_YAW
     pitch: float = DEFAULT_PITCH
@@ -199,6 +231,8 @@ class CameraSpec:
         text = spec.strip()
         if text in ("", "auto"):
             return cls()
+        if text == "action":
+            return cls(mode="action")
         if text.startswith("follow:"):
             name = text.split(":", 1)[1].strip()
             if not name:
@@ -232,6 +266,13 @@ class CameraSpec:
             cam.target = scene.entity(self.name).position
             cam.distance = 6.0
             return cam
+        if self.mode == "action":
+            centre = action_point(scene)
+            if centre is not None:
+                cam.target = centre
+                cam.distance = action_distance(scene, cam.fov_y)
+                return cam
+            # no characters: the whole scene, as auto frames it
         if self.mode == "eye":
             target = self.target if self.target is not None else (points.min(0) + points.max(0)) / 2.0
             offset = self.eye - target
@@ -243,7 +284,7 @@ class CameraSpec:
             cam.pitch = math.degrees(math.asin(max(-1.0, min(1.0, offset[1] / dist))))
             cam.yaw = math.degrees(math.atan2(offset[0], offset[2]))
             return cam
-        if self.mode == "auto":
+        if self.mode in ("auto", "action"):
             best = None
             for yaw in np.arange(-AUTO_YAW_RANGE, AUTO_YAW_RANGE + 1, 10.0) + self.yaw:
                 cam.yaw = float(yaw) % 360.0
@@ -257,3 +298,10 @@ class CameraSpec:
         if self.distance is not None:
             cam.distance = self.distance
         return cam
+
+
+def action_distance(scene, fov_y: float) -> float:
+    """The distance at which the scene's tallest character fills ACTION_HEIGHT_SHARE of the picture."""
+    heights = character_heights(scene)
+    height = max(heights.values()) if heights else 1.75
+    return height / (ACTION_HEIGHT_SHARE * 2.0 * math.tan(math.radians(fov_y) / 2.0))

@@ -14,8 +14,9 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
     p = subparsers.add_parser("play", help="open a window and play a scene (default: schoolyard)")
     add_scene_args(p, scene_default="schoolyard")
     p.add_argument("--size", default="1280x720", metavar="WxH", help="window size (default 1280x720)")
-    p.add_argument("--camera", default="auto", metavar="SPEC",
-                   help="auto, follow:NAME, orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ]")  # fmt: skip
+    p.add_argument("--camera", default="action", metavar="SPEC",
+                   help="action (default: the characters, a third of the picture high, followed), auto (the "
+                   "whole scene), follow:NAME, orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ]")  # fmt: skip
     p.add_argument("--paused", action="store_true", help="start paused")
     p.add_argument("--frames", type=int, default=None, metavar="N",
                    help="quit after N drawn frames (for scripted checks)")  # fmt: skip
@@ -33,8 +34,8 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
     p.add_argument("--fps", type=float, default=None,
                    help="frames per second of a GIF/MP4 (default 15 for GIF, 30 for MP4)")  # fmt: skip
     p.add_argument("--camera", default="auto", metavar="SPEC",
-                   help="auto (frame the whole scene), follow:NAME, orbit:YAW,PITCH[,DIST], "
-                   "or EX,EY,EZ[@TX,TY,TZ] (eye position and target in metres)")  # fmt: skip
+                   help="auto (frame the whole scene), action (the characters), follow:NAME, "
+                   "orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ] (eye and target, m)")  # fmt: skip
     p.set_defaults(func=cmd_render)
 
 

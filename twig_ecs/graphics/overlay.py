@@ -22,13 +22,17 @@ _FONT_FILES = (
 )
 
 HELP_LINES = (
+    "Drag a body     pull it (spring) Release            throw it",
+    "Click a body    select / target  1-7                command the selected",
     "Mouse drag      orbit            Right drag / WASD  pan",
     "Wheel           zoom             Q / E              turn",
     "Space           pause / run      .                  one step",
     "Tab             next character   F                  follow selected",
     "R               reload scene     L                  hidden links",
     "F1              inspector        F12                screenshot (PNG)",
-    "H               this help        Esc                quit",
+    "[ / ]           slower / faster  V                  record MP4 (again: stop)",
+    "Backspace       clear selection  Esc                quit",
+    "H               this help",
 )
 
 

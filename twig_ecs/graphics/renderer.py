@@ -213,6 +213,8 @@ class RenderOptions:
     faces: bool = True
     selected: str | None = None  # entity name with a ring on the ground under it
     attention: bool = False  # a thin yellow line from each perceiving head to its focus
+    #: more capsule rows (``solid_instances``) to draw this frame: the window's mouse spring
+    extra_capsules: np.ndarray | None = None
 
 
 class Renderer:
@@ -384,6 +386,8 @@ class Renderer:
         balls = [solid_instances(pos[sph], pos[sph], n.radius[sph], n.color[sph])]
         if opts.attention:
             caps.append(attention_lines(scene, pos))
+        if opts.extra_capsules is not None and len(opts.extra_capsules):
+            caps.append(np.asarray(opts.extra_capsules, dtype=np.float32))
 
         faces = t.faces
         if opts.faces and len(faces.head):
