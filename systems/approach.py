@@ -41,6 +41,34 @@ def target_point(character, target) -> np.ndarray:
 _FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+@njit(cache=True)
+def body_footprints(pos, body, flags, n, locked, cx, cz, spread, free):
+    """Per body, from its first ``n`` nodes: ground centre (``cx``, ``cz``: the mean of its
+    nodes), squared spread (the furthest node from it on the ground) and how many of its
+    nodes are not ``locked``. Sums in node order, as numpy's bincount does."""
+    count = np.zeros(len(cx))
+    cx[:] = 0.0
+    cz[:] = 0.0
+    spread[:] = 0.0
+    free[:] = 0.0
+    for i in range(n):
+        b = body[i]
+        count[b] += 1.0
+        cx[b] += pos[i, 0]
+        cz[b] += pos[i, 2]
+        if flags[i] & locked == 0:
+            free[b] += 1.0
+    for b in range(len(cx)):
+        m = max(count[b], 1.0)
+        cx[b] /= m
+        cz[b] /= m
+    for i in range(n):
+        b = body[i]
+        d = (pos[i, 0] - cx[b]) ** 2 + (pos[i, 2] - cz[b]) ** 2
+        if spread[b] == spread[b] and not d <= spread[b]:  # a NaN sticks, as in np.maximum
+            spread[b] = d
+
+
 def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict, np.ndarray]:
     """Each body's ground centre (x, z), squared spread, whether it is WIDE, and, for a
     static body (every node locked: a fence, a wall), its collidable links, and which
@@ -50,14 +78,10 @@ def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, 
     if cached is not None and cached[0] == scene.frame:
         return cached[1]
     state = scene.state
-    pos, body = state.nodes.pos[: state.nodes.count], state.nodes.body[: state.nodes.count]
     n_bodies = state.bodies.count
-    counts = np.maximum(np.bincount(body, minlength=n_bodies), 1)
-    cx = np.bincount(body, pos[:, 0], n_bodies) / counts
-    cz = np.bincount(body, pos[:, 2], n_bodies) / counts
-    spread = np.zeros(n_bodies)
-    np.maximum.at(spread, body, (pos[:, 0] - cx[body]) ** 2 + (pos[:, 2] - cz[body]) ** 2)
-    free = np.bincount(body, (state.nodes.flags[: state.nodes.count] & NODE_LOCKED) == 0, n_bodies)
+    cx, cz, spread, free = np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies)
+    body_footprints(state.nodes.pos, state.nodes.body, state.nodes.flags, state.nodes.count, NODE_LOCKED,
+                    cx, cz, spread, free)  # fmt: skip
     static = (free == 0) & (np.sqrt(spread) > WIDE)
     links = state.links
     collide = (links.flags[: links.count] & LINK_COLLIDE) != 0

@@ -170,12 +170,12 @@ class Behavior(System):
     def candidates(self) -> list[tuple[int, Mind]]:
         """The (entity, mind) pairs this behaviour may propose for (a superset is fine).
 
-        Goal-driven: characters holding goals; with a component: characters having it;
-        otherwise every character. Narrowing this keeps a crowd from costing each
+        Goal-driven: characters whose current goal is this behaviour's; with a component:
+        characters having it; otherwise every character. Narrowing this keeps a crowd from costing each
         behaviour a Python call per character per step.
         """
         if self.goal_driven:
-            return self.scene.goal_holders()
+            return self.scene.goal_holders_of(self.name)
         if self.component is not None:
             return [(e, mind) for e, (_, mind, _) in esper.get_components(Character, Mind, self.component)]
         return [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind)]
@@ -250,10 +250,8 @@ def goal_targets(scene, behavior: str) -> dict[int, tuple[int, Goal]]:
     Reads the scene's goal holders; a goal whose target no longer exists is left out.
     """
     out: dict[int, tuple[int, Goal]] = {}
-    for entity, mind in scene.goal_holders():
+    for entity, mind in scene.goal_holders_of(behavior):
         goal = mind.goal
-        if goal is None or goal.behavior != behavior:
-            continue
         target = goal.params.get("target")
         if scene.has_entity(target):
             out[scene.entity(target).entity] = (entity, goal)

@@ -9,7 +9,10 @@ from collections.abc import Callable
 
 from twig_ecs.bench import cases, mujoco_ragdolls, timing
 
-CASES = ("schoolyard", "crowd", "approach", "ragdolls")
+CASES = ("schoolyard", "crowd", "approach", "hug", "brawl", "plugin", "ragdolls")
+#: The cases of N characters, with the scene maker of each.
+SIZED = {"crowd": cases.crowd, "approach": cases.approach_crowd, "hug": cases.hugging_pairs,
+         "brawl": cases.brawl, "plugin": cases.plugin_strollers, "ragdolls": cases.ragdoll_pile}  # fmt: skip
 SIZES = (10, 100, 1000)
 
 
@@ -44,12 +47,9 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
     if "schoolyard" in which:
         jobs.append(("schoolyard", None, cases.schoolyard))
     for size in sizes:
-        if "crowd" in which:
-            jobs.append(("crowd", size, lambda n=size: cases.crowd(n)))
-        if "approach" in which:
-            jobs.append(("approach", size, lambda n=size: cases.approach_crowd(n)))
-        if "ragdolls" in which:
-            jobs.append(("ragdolls", size, lambda n=size: cases.ragdoll_pile(n)))
+        for kind, make in SIZED.items():
+            if kind in which:
+                jobs.append((kind, size, lambda n=size, make=make: make(n)))
     if mujoco and not mujoco_ragdolls.available():
         say("mujoco: not installed (pip install 'twig-ecs[bench]'): no comparison")
         mujoco = False
