@@ -84,10 +84,12 @@ def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, 
                     cx, cz, spread, free)  # fmt: skip
     static = (free == 0) & (np.sqrt(spread) > WIDE)
     links = state.links
-    collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
-    walls = {
-        int(b): np.flatnonzero(collide & (links.body[: links.count] == b)) for b in np.flatnonzero(static)
-    }
+    walls = {}
+    if static.any():  # (a crowd has none: no pass over every link)
+        collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
+        walls = {
+            int(b): np.flatnonzero(collide & (links.body[: links.count] == b)) for b in np.flatnonzero(static)
+        }
     wide = (np.sqrt(spread) > WIDE) & ~static
     # bodies steered round as discs or walls, not by their nearest node
     blocked = wide | static
@@ -507,6 +509,12 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
     return False
 
 
+#: :func:`steer_goals`'s ``params``: the approach field's gains and the thresholds above.
+_GOAL_PARAMS = np.array([SteeringParams().speed, SteeringParams().repulsion, SteeringParams().cutoff,
+                         SteeringParams().min_sq, SteeringParams().fade, STEP_OVER, STALL_TIME, ARRIVE_SLACK,
+                         STEER_CELL])  # fmt: skip
+
+
 @dataclass
 class _Batch:
     """The arrays :func:`steer_goals` reads for one set of approach goals, packed when the set
@@ -682,12 +690,16 @@ class Approach(Behavior):
         a = packed.arrays
         ch, nodes, links = state.characters, state.nodes, state.links
         # what the per-character act writes before it steers: gaze and arms
-        ch.gaze_node[a["gaze_rows"]] = a["gaze_nodes"]
-        ch.gaze_mode[a["gaze_rows"]] = GAZE_NODE
-        ch.arm_mode[a["hug"]] = HUG
-        ch.arm_mode[a["grapple"]] = GRAPPLE
-        ch.arm_node[a["reach"]] = a["reach_nodes"][:, None]
-        ch.arm_mode[a["reach"]] = REACH
+        if len(a["gaze_rows"]):
+            ch.gaze_node[a["gaze_rows"]] = a["gaze_nodes"]
+            ch.gaze_mode[a["gaze_rows"]] = GAZE_NODE
+        if len(a["hug"]):
+            ch.arm_mode[a["hug"]] = HUG
+        if len(a["grapple"]):
+            ch.arm_mode[a["grapple"]] = GRAPPLE
+        if len(a["reach"]):
+            ch.arm_node[a["reach"]] = a["reach_nodes"][:, None]
+            ch.arm_mode[a["reach"]] = REACH
         for k in a["gaze_moving"]:
             row, entity, goal = packed.rows[k]
             scene.character_handle(entity).look_at(goal.params["target"])
@@ -698,13 +710,11 @@ class Approach(Behavior):
             start, entries, slot, scratch, found = _steering_grid(scene)
             cx, cz, spread, wide, walls, blocked = _footprints(scene)
             wall_body, wall_start, wall_links = _wall_table(walls)
-            params = SteeringParams()
             obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
             steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, entries,
                         a["crows"], a["pelvis"], a["me"], a["target"], a["point"], a["stop"], a["direction"],
                         a["curl"], a["max_speed"], ch.mode, packed.best, packed.best_at, scene.time, scene.dt,
-                        np.array([params.speed, params.repulsion, params.cutoff, params.min_sq, params.fade,
-                                  STEP_OVER, STALL_TIME, ARRIVE_SLACK, STEER_CELL]),
+                        _GOAL_PARAMS,
                         cx, cz, spread, np.flatnonzero(wide), blocked, wall_body, wall_start, wall_links,
                         links.a, links.b,
                         a["grab_holder"], a["grab_held"], slot, scratch, found, obstacles, a["skip"], ch.walk,

@@ -35,9 +35,14 @@ class SelectBehaviorSystem(System):
         batches: dict[str, tuple[list[int], list[int], list]] = {}
         for entity, (character, mind) in esper.get_components(Character, Mind):
             proposals = mind.activations
-            proposals.setdefault("idle", IDLE)
             was = mind.winner
-            best = max(proposals, key=proposals.__getitem__)
+            if len(proposals) == 1 and proposals.get(was, -1.0) >= IDLE:
+                # the one proposal is the winner's, above idle: it carries on (a crowd's usual step)
+                proposals["idle"] = IDLE
+                best = was
+            else:
+                proposals.setdefault("idle", IDLE)
+                best = max(proposals, key=proposals.__getitem__)
             if best != was and was in proposals:
                 held = now - mind.since < MIN_DWELL
                 margin = proposals[best] - (proposals[was] + STICKINESS)
