@@ -118,3 +118,18 @@ def test_a_stalled_batch_approach_fails_stuck(curl):
             assert goal.status == "done", goal.reason
         else:
             assert goal.status == "failed" and goal.reason.startswith("stuck")
+
+
+def test_a_snapshot_mid_approach_resumes_the_same_world():
+    """The batch's packed arrays are not state: a scene restored mid-approach (stall clocks and
+    all, from the goals' memory) steps on exactly as the original does."""
+    with busy_yard() as scene:
+        scene.step(45)
+        data = scene.snapshot()
+        with Scene.restore(data) as copy_:
+            scene.step(90)
+            copy_.step(90)
+            assert copy_.state_hash() == scene.state_hash()
+            assert [g.memory.get("best") for g in approachers(copy_)[2]] == [
+                g.memory.get("best") for g in approachers(scene)[2]
+            ]
