@@ -32,12 +32,17 @@ class SelectBehaviorSystem(System):
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
-        batches: dict[str, tuple[list[int], list[int]]] = {}
+        batches: dict[str, tuple[list[int], list[int], list]] = {}
         for entity, (character, mind) in esper.get_components(Character, Mind):
             proposals = mind.activations
-            proposals.setdefault("idle", IDLE)
             was = mind.winner
-            best = max(proposals, key=proposals.__getitem__)
+            if len(proposals) == 1 and proposals.get(was, -1.0) >= IDLE:
+                # the one proposal is the winner's, above idle: it carries on (a crowd's usual step)
+                proposals["idle"] = IDLE
+                best = was
+            else:
+                proposals.setdefault("idle", IDLE)
+                best = max(proposals, key=proposals.__getitem__)
             if best != was and was in proposals:
                 held = now - mind.since < MIN_DWELL
                 margin = proposals[best] - (proposals[was] + STICKINESS)
@@ -69,11 +74,16 @@ class SelectBehaviorSystem(System):
             if winner.batch:
                 batch = batches.get(best)
                 if batch is None:
-                    batch = batches[best] = ([], [])
+                    batch = batches[best] = ([], [], [])
                 batch[0].append(character.index)
                 batch[1].append(entity)
+                batch[2].append(own_goal)
                 continue
             winner.act(handle or scene.character_handle(entity), mind, own_goal, dt)
         # batch behaviours act once for all the characters they won, after the others
-        for name, (rows, entities) in batches.items():
-            behaviors[name].act_batch(rows, entities, dt)
+        for name, (rows, entities, goals) in batches.items():
+            behavior = behaviors[name]
+            if behavior.goal_driven:  # each one's goal too (None where it has none)
+                behavior.act_batch(rows, entities, dt, goals=goals)
+            else:
+                behavior.act_batch(rows, entities, dt)

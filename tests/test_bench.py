@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
-from twig_ecs.bench.run import run_bench
+from twig_ecs.bench import cases
+from twig_ecs.bench.run import SIZED, run_bench
 from twig_ecs.bench.table import format_report
 from twig_ecs.cli import main
 
@@ -43,3 +45,39 @@ def test_mujoco_ragdolls_are_as_many_capsule_humanoids():
     info = sim.info()
     assert info["bodies"] == 4 * 12 and info["geoms"] == 4 * 13
     assert info["unstable"] == 0
+
+
+@pytest.mark.parametrize("kind", ["schoolyard", *SIZED])
+def test_every_bench_case_steps_the_same_timed_and_untimed(kind):
+    """What ``twig bench`` times is what users run: ``step_timed`` (as the bench steps) and
+    plain steps give the same state hash, case by case."""
+    make = cases.schoolyard if kind == "schoolyard" else (lambda: getattr(cases, SIZED[kind])(6))
+    with make() as timed, make() as plain:
+        times: dict[str, list[float]] = {}
+        for _ in range(90):
+            timed.step_timed(times)
+        plain.step(90)
+        assert timed.state_hash() == plain.state_hash()
+        assert timed.frame == plain.frame == 90
+
+
+def test_the_goal_driven_cases_do_what_they_say():
+    """Hugging pairs get their arms round each other, brawlers grapple, strollers walk their
+    circles through the plug-in: the bench times those behaviours, not idle characters."""
+    with cases.hugging_pairs(4) as scene:
+        scene.run(4.0)
+        hugger = scene.entity("a0")
+        assert hugger.behaviour == "hug" and hugger.goals[0].memory["phase"] in ("wrap", "hold")
+        assert scene.entity("b0").behaviour == "embrace"
+    with cases.brawl(4) as scene:
+        scene.run(3.0)
+        assert scene.entity("a0").behaviour == "grapple"
+        # the grappled defend themselves, or flinch from a blow (the pain reflex)
+        assert {scene.entity(f"b{k}").behaviour for k in (0, 1)} <= {"defend", "withdraw"}
+    with cases.plugin_strollers(3) as scene:
+        start = scene.entity("s0").position
+        scene.run(3.0)
+        person = scene.entity("s0")
+        assert person.behaviour == "stroll"
+        assert np.hypot(*(person.position - start)[[0, 2]]) > 1.0, "it walked"
+        assert abs(np.hypot(person.position[0], person.position[2]) - 1.5) < 0.6, "round its circle"

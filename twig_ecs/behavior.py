@@ -170,12 +170,12 @@ class Behavior(System):
     def candidates(self) -> list[tuple[int, Mind]]:
         """The (entity, mind) pairs this behaviour may propose for (a superset is fine).
 
-        Goal-driven: characters holding goals; with a component: characters having it;
-        otherwise every character. Narrowing this keeps a crowd from costing each
+        Goal-driven: characters whose current goal is this behaviour's; with a component:
+        characters having it; otherwise every character. Narrowing this keeps a crowd from costing each
         behaviour a Python call per character per step.
         """
         if self.goal_driven:
-            return self.scene.goal_holders()
+            return self.scene.goal_holders_of(self.name)
         if self.component is not None:
             return [(e, mind) for e, (_, mind, _) in esper.get_components(Character, Mind, self.component)]
         return [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind)]
@@ -183,12 +183,20 @@ class Behavior(System):
     def process(self, dt: float) -> None:
         """Propose this behaviour's activation for every character."""
         scene = self.scene
+        name = self.name
+        if self.goal_driven and type(self).activation is Behavior.activation:
+            # the default: a fixed activation while its goal is current, no handle needed
+            for _, mind in self.candidates():
+                goals = mind.goals
+                if goals and goals[0].behavior == name:
+                    mind.activations[name] = GOAL_ACTIVATION
+            return
         for entity, mind in self.candidates():
             if not (self.goal_driven or self.reflex or mind.autonomous):
                 continue  # a scripted character does only what it is told
             goal = mind.goal
             if self.goal_driven:
-                if goal is None or goal.behavior != self.name:
+                if goal is None or goal.behavior != name:
                     continue
                 value = self.activation(scene.character_handle(entity), mind, goal)
             else:
@@ -206,11 +214,12 @@ class Behavior(System):
     def act(self, character: CharacterHandle, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Write the motor vector: walk, arms, gaze, posture targets."""
 
-    def act_batch(self, rows: list[int], entities: list[int], dt: float) -> None:
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
         """Act for every character this behaviour won this step (a batch behaviour).
 
         ``rows`` are their rows in the store's character table, ``entities`` their
-        entities. The default calls :meth:`act` for each.
+        entities; a goal-driven behaviour also gets ``goals``, each one's current goal (None
+        where it has none of this behaviour's). The default calls :meth:`act` for each.
         """
         for entity in entities:
             mind = esper.component_for_entity(entity, Mind)
@@ -241,10 +250,8 @@ def goal_targets(scene, behavior: str) -> dict[int, tuple[int, Goal]]:
     Reads the scene's goal holders; a goal whose target no longer exists is left out.
     """
     out: dict[int, tuple[int, Goal]] = {}
-    for entity, mind in scene.goal_holders():
+    for entity, mind in scene.goal_holders_of(behavior):
         goal = mind.goal
-        if goal is None or goal.behavior != behavior:
-            continue
         target = goal.params.get("target")
         if scene.has_entity(target):
             out[scene.entity(target).entity] = (entity, goal)

@@ -45,6 +45,7 @@ if TYPE_CHECKING:
     from twig_ecs.scene import Scene
 
 HANDS = {"left": (0,), "right": (1,), "both": (0, 1)}
+_ROLE_INDEX = {role: k for k, role in enumerate(ROLES)}
 POSTURES = {STAND: "stand", SIT: "sit", RISE: "rise", LIMP: "limp"}
 GESTURES = ("wave", "point")
 #: The arm poses of :meth:`CharacterHandle.pose`.
@@ -116,13 +117,17 @@ def _set_braces(scene: Scene, body: Body, on: bool) -> None:
 
 def _vector(value: Any, what: str, size: int = 3) -> np.ndarray:
     """A finite 2- or 3-vector from user input, or a TwigError naming ``what``."""
-    try:
-        v = np.asarray(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise TwigError(f"{what} must be a list of numbers, got {value!r}") from None
-    if v.size == 2 and size == 3:
-        v = np.array([v[0], 0.0, v[1]])  # [x, z] on the ground
-    if v.size != size or not np.all(np.isfinite(v)) or np.abs(v).max(initial=0) > LIMIT:
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (size,):
+        v = value  # what a behaviour computed: used as it is (as np.asarray would), no copy
+    else:
+        try:
+            v = np.asarray(value, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise TwigError(f"{what} must be a list of numbers, got {value!r}") from None
+        if v.size == 2 and size == 3:
+            v = np.array([v[0], 0.0, v[1]])  # [x, z] on the ground
+    # plain floats: numpy's reductions cost more than the check on three numbers
+    if v.size != size or not all(math.isfinite(x) and abs(x) <= LIMIT for x in v.tolist()):
         raise TwigError(f"{what} must be {size} finite numbers (at most {LIMIT:g} in size), got {value!r}")
     return v
 
@@ -140,7 +145,12 @@ class CharacterHandle(BodyHandle):
     def character(self) -> Character:
         """The Character component."""
         self.scene.activate()
-        return esper.component_for_entity(self.entity, Character)
+        # looked up once per handle: a behaviour's act reads it ten times (rows, holding,
+        # max speed); the check that the entity still lives keeps a removed one an error
+        found = self.__dict__.get("_character")
+        if found is None or not esper.entity_exists(self.entity):
+            found = self.__dict__["_character"] = esper.component_for_entity(self.entity, Character)
+        return found
 
     @property
     def _crow(self) -> int:
@@ -151,7 +161,7 @@ class CharacterHandle(BodyHandle):
         return self.scene.state.characters
 
     def _role(self, role: str) -> int:
-        return int(self._chars().nodes[self._crow, ROLES.index(role)])
+        return int(self._chars().nodes[self._crow, _ROLE_INDEX[role]])
 
     def _hands(self, hand: str) -> tuple[int, ...]:
         try:
@@ -284,12 +294,14 @@ class CharacterHandle(BodyHandle):
         """
         v = _vector(velocity, "walk velocity")
         v[1] = 0.0
-        speed = float(np.linalg.norm(v))
-        limit = self.character.max_speed
+        speed = math.hypot(v[0], v[2])
+        character = self.character
+        limit = character.max_speed
         if speed > limit:
             raise TwigError(f"walk speed {speed:.2f} m/s is more than '{self.name}' can do ({limit} m/s)")
-        self._chars().walk[self._crow] = v
-        if self.posture == "sit":
+        ch, row = self._chars(), character.index
+        ch.walk[row] = v
+        if ch.mode[row] == SIT:
             self.stand()
 
     def stop(self) -> None:

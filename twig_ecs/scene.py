@@ -87,6 +87,10 @@ class Scene:
         # characters that were given goals (entity -> Mind), pruned when their goals run
         # out: goal-driven behaviours look only at these (see goal_holders)
         self._goal_holders: dict[int, Mind] = {}
+        # goal holders by the behaviour of their current goal, rebuilt when a goal is given or
+        # ends or a step begins (goal_holders_of)
+        self._goal_index: tuple[tuple[int, int], dict[str, list[tuple[int, Mind]]]] = ((-1, -1), {})
+        self._goal_changes = 0
         self.goals_made = 0  # goal ids count per scene, so a restored or replayed scene numbers alike
         self.activate()
         make_deterministic()
@@ -215,6 +219,7 @@ class Scene:
         del self._names[name]
         del self._name_by_entity[entity]
         self._goal_holders.pop(entity, None)
+        self._goal_changes += 1
 
     # -- grab joints --------------------------------------------------------------------
 
@@ -362,6 +367,7 @@ class Scene:
     def note_goal(self, entity: int, mind: Mind) -> None:
         """Record that a character was given a goal (see :meth:`goal_holders`)."""
         self._goal_holders[entity] = mind
+        self._goal_changes += 1
 
     def goal_holders(self) -> list[tuple[int, Mind]]:
         """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
@@ -375,10 +381,25 @@ class Scene:
             del holders[e]
         return list(holders.items())
 
+    def goal_holders_of(self, behavior: str) -> list[tuple[int, Mind]]:
+        """The :meth:`goal_holders` whose current goal is for ``behavior``, in the same order.
+
+        One pass over the holders serves every goal behaviour of a step, instead of one
+        pass each: the index is rebuilt when a goal is given or ends, or a step begins.
+        """
+        key = (self.frame, self._goal_changes)
+        if self._goal_index[0] != key:
+            index: dict[str, list[tuple[int, Mind]]] = {}
+            for entity, mind in self.goal_holders():
+                index.setdefault(mind.goals[0].behavior, []).append((entity, mind))
+            self._goal_index = (key, index)
+        return self._goal_index[1].get(behavior, [])
+
     def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """Finish a character's goal: mark it, drop it from the queue, report it."""
         if goal.finished:
             return
+        self._goal_changes += 1
         goal.status, goal.reason = ("done" if ok else "failed"), reason
         mind = esper.component_for_entity(character.entity, Mind)
         if goal in mind.goals:

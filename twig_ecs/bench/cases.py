@@ -1,11 +1,14 @@
-"""The scenes ``twig bench`` times: the schoolyard, crowds, approach crowds and ragdoll piles."""
+"""The scenes ``twig bench`` times: the schoolyard, crowds, goal-driven crowds (approach,
+hugging pairs, a brawl), a plain-Python plug-in behaviour and ragdoll piles."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from twig_ecs.behavior import Behavior
 from twig_ecs.scene import Scene
 
 
@@ -50,4 +53,87 @@ def approach_crowd(count: int) -> Scene:
     if count > 1:
         for k, person in enumerate(people):
             person.approach(people[(k + int(rng.integers(1, count))) % count].name)
+    return scene
+
+
+def _grid_of_pairs(count: int, seed: int) -> tuple[Scene, list]:
+    """``count`` characters (rounded down to even) as pairs facing each other 1.6 m apart,
+    the pairs on a square grid 4 m apart; returns the scene and the pairs."""
+    scene = Scene.load("empty")
+    pairs = count // 2
+    side = max(1, math.ceil(math.sqrt(pairs)))
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in range(pairs):
+        x, z = (k % side) * 4.0, (k // side) * 4.0
+        turn = float(rng.uniform(0, 360))
+        dx, dz = 0.8 * math.sin(math.radians(turn)), 0.8 * math.cos(math.radians(turn))
+        a = scene.spawn("humanoid", name=f"a{k}", position=(x - dx, 0.0, z - dz), facing=turn, character=True)
+        b = scene.spawn("humanoid", name=f"b{k}", position=(x + dx, 0.0, z + dz), facing=turn + 180,
+                        character=True)  # fmt: skip
+        out.append((a, b))
+    return scene, out
+
+
+def hugging_pairs(count: int) -> Scene:
+    """``count`` characters in pairs, one of each hugging the other (a long hug: the whole
+    run is walk-up, arms round and holding, the partner answering with its embrace)."""
+    scene, pairs = _grid_of_pairs(count, seed=3)
+    for a, b in pairs:
+        a.hug(b.name, duration=600.0)
+    return scene
+
+
+def brawl(count: int) -> Scene:
+    """``count`` characters in pairs, one of each grappling the other (a long fight; the
+    partner defends)."""
+    scene, pairs = _grid_of_pairs(count, seed=4)
+    for a, b in pairs:
+        a.grapple(b.name, duration=600.0)
+    return scene
+
+
+@dataclass
+class Strolling:
+    """A stroller's circle: centre (x, z) and radius (m) - the plug-in behaviour's component."""
+
+    centre: tuple[float, float] = (0.0, 0.0)
+    radius: float = 1.5
+
+
+class Stroll(Behavior):
+    """A plug-in behaviour written in plain Python, as a user would (docs/authoring-behaviours.md):
+    walk round a circle through the handle API, looking where it goes. ``twig bench``'s
+    ``plugin`` case times its cost per character."""
+
+    name = "stroll"
+    component = Strolling
+
+    def activation(self, character, mind, goal) -> float:
+        """Always a little keen."""
+        return 0.5
+
+    def act(self, character, mind, goal, dt: float) -> None:
+        """Walk along the circle's tangent, pulled back onto it."""
+        circle = self.settings(character)
+        here = character.position
+        off = np.array([here[0] - circle.centre[0], 0.0, here[2] - circle.centre[1]])
+        r = float(np.linalg.norm(off)) or 1e-9
+        tangent = np.array([-off[2], 0.0, off[0]]) / r
+        character.walk(0.9 * tangent - 0.5 * (r - circle.radius) * off / r)
+        character.look_at(here + 2.0 * tangent)
+
+
+def plugin_strollers(count: int) -> Scene:
+    """``count`` characters, each strolling round its own circle under :class:`Stroll`."""
+    import esper
+
+    scene = Scene.load("empty")
+    scene.add_system(Stroll())
+    side = math.ceil(math.sqrt(count))
+    for k in range(count):
+        x, z = (k % side) * 4.0, (k // side) * 4.0
+        person = scene.spawn("humanoid", name=f"s{k}", position=(x + 1.5, 0.0, z), character=True)
+        scene.activate()
+        esper.add_component(person.entity, Strolling(centre=(x, z)))
     return scene

@@ -7,7 +7,11 @@ import sys
 import time
 from collections.abc import Callable
 
-CASES = ("schoolyard", "crowd", "approach", "ragdolls")
+CASES = ("schoolyard", "crowd", "approach", "hug", "brawl", "plugin", "ragdolls")
+#: The cases of N characters, with the name of each one's scene maker in bench.cases
+#: (names, not functions: the cases import the whole scene, and `twig`'s parser reads this module).
+SIZED = {"crowd": "crowd", "approach": "approach_crowd", "hug": "hugging_pairs",
+         "brawl": "brawl", "plugin": "plugin_strollers", "ragdolls": "ragdoll_pile"}  # fmt: skip
 SIZES = (10, 100, 1000)
 
 
@@ -46,12 +50,10 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
     if "schoolyard" in which:
         jobs.append(("schoolyard", None, cases.schoolyard))
     for size in sizes:
-        if "crowd" in which:
-            jobs.append(("crowd", size, lambda n=size: cases.crowd(n)))
-        if "approach" in which:
-            jobs.append(("approach", size, lambda n=size: cases.approach_crowd(n)))
-        if "ragdolls" in which:
-            jobs.append(("ragdolls", size, lambda n=size: cases.ragdoll_pile(n)))
+        for kind, maker in SIZED.items():
+            make = getattr(cases, maker)
+            if kind in which:
+                jobs.append((kind, size, lambda n=size, make=make: make(n)))
     if mujoco and not mujoco_ragdolls.available():
         say("mujoco: not installed (pip install 'twig-ecs[bench]'): no comparison")
         mujoco = False
