@@ -153,3 +153,23 @@ def test_a_swinging_foot_stays_within_its_legs_reach_in_sharp_turns(scenes):
                 reach = np.linalg.norm(person.node(f"{side}_foot") - person.node(f"{side}_hip"))
                 worst = max(worst, float(reach) / legs)
     assert worst <= 1.02, f"a foot got {worst:.3f} leg lengths from its hip"
+
+
+def test_elbows_and_knees_stay_in_a_human_range_in_a_grapple(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    a = scene.spawn("humanoid", name="a", character=True)
+    b = scene.spawn("humanoid", name="b", character=True, position=(0.2, 0.0, 2.5), facing=180, height=1.6)
+    scene.run(0.3)
+    a.grapple("b", duration=4.0)
+    elbows, knees = [], []
+    for _ in range(7 * 60):
+        scene.step()
+        for h in (a, b):
+            for s in "lr":
+                arm = (h.node(f"{s}_shoulder"), h.node(f"{s}_elbow"), h.node(f"{s}_hand"))
+                leg = (h.node(f"{s}_hip"), h.node(f"{s}_knee"), h.node(f"{s}_foot"))
+                elbows.append(walklab.knee_flexion(*arm))
+                knees.append(walklab.knee_flexion(*leg))
+    assert max(elbows) <= 150.0, f"an elbow folded {max(elbows):.0f} deg (a person's: ~145-150; before: 164-177)"
+    assert max(knees) <= 140.0, f"a knee folded {max(knees):.0f} deg"
