@@ -82,9 +82,12 @@ def control_arms(pos, prev, acc, nodes, arm_mode, arm_point, arm_node, gesture_p
             s = nd[L_SHOULDER + h]
             e = nd[L_ELBOW + h]
             w = nd[L_HAND + h]
-            unfold(pos, prev, s, e, w)
             if mode == HANG:
                 continue
+            if mode == GRAPPLE:
+                # fists thrown and rebounding off a chest fold the elbows up (to 164-177
+                # degrees before); a reaching or carrying hand keeps to the hinge alone
+                unfold(pos, prev, s, e, w)
             length = 0.0
             for a, b in ((s, e), (e, w)):
                 length += math.sqrt((pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2
