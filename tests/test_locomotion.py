@@ -171,5 +171,5 @@ def test_elbows_and_knees_stay_in_a_human_range_in_a_grapple(scenes):
                 leg = (h.node(f"{s}_hip"), h.node(f"{s}_knee"), h.node(f"{s}_foot"))
                 elbows.append(walklab.knee_flexion(*arm))
                 knees.append(walklab.knee_flexion(*leg))
-    assert max(elbows) <= 150.0, f"an elbow folded {max(elbows):.0f} deg (a person's: ~145-150; before: 164-177)"
+    assert max(elbows) <= 150.0, f"an elbow folded {max(elbows):.0f} deg (a person's ~145; before: 164-177)"
     assert max(knees) <= 140.0, f"a knee folded {max(knees):.0f} deg"
