@@ -37,8 +37,35 @@ from twig_ecs.system import System
 
 HAND_GAIN, HAND_DAMP = 150.0, 24.0  # 1/s^2, 1/s
 ELBOW_DAMP = 10.0
+ELBOW_MOST = math.radians(145.0)  # the most an elbow folds (a person's: about 145-150 degrees)
 WAVE_HZ = 1.6
 MAX_ACC = 120.0
+
+
+@njit(cache=True)
+def unfold(pos, prev, s, e, w):
+    """Keep the elbow of shoulder ``s``, elbow ``e``, hand ``w`` from folding past ELBOW_MOST.
+
+    The hinge limit (the body's ``joint_limits``) only keeps the elbow pointing back and
+    down; how far it folds is left to the hand. A hand nearer its shoulder than a human
+    elbow allows (a blow rebounding off a chest, a pose held in close) is moved out along
+    the shoulder-hand line, ``pos`` and ``prev`` together: its inward speed is dropped
+    with it, so it does not spring back and forth (the wobble of a grapple's elbows).
+    """
+    u = math.sqrt((pos[e, 0] - pos[s, 0]) ** 2 + (pos[e, 1] - pos[s, 1]) ** 2 + (pos[e, 2] - pos[s, 2]) ** 2)
+    f = math.sqrt((pos[w, 0] - pos[e, 0]) ** 2 + (pos[w, 1] - pos[e, 1]) ** 2 + (pos[w, 2] - pos[e, 2]) ** 2)
+    # the shoulder-hand distance with the elbow folded ELBOW_MOST (interior angle 180 - that)
+    least = math.sqrt(max(0.0, u * u + f * f + 2.0 * u * f * math.cos(ELBOW_MOST)))
+    dx = pos[w, 0] - pos[s, 0]
+    dy = pos[w, 1] - pos[s, 1]
+    dz = pos[w, 2] - pos[s, 2]
+    d = math.sqrt(dx * dx + dy * dy + dz * dz)
+    if d >= least or d < 1e-9:
+        return
+    k = (least - d) / d
+    for q, v in ((0, dx), (1, dy), (2, dz)):
+        pos[w, q] += k * v
+        prev[w, q] += k * v
 
 
 # fmt: off
@@ -52,11 +79,15 @@ def control_arms(pos, prev, acc, nodes, arm_mode, arm_point, arm_node, gesture_p
         fx, fz = forward_xz(pos, nd[L_SHOULDER], nd[R_SHOULDER])
         for h in range(2):
             mode = arm_mode[c, h]
-            if mode == HANG:
-                continue
             s = nd[L_SHOULDER + h]
             e = nd[L_ELBOW + h]
             w = nd[L_HAND + h]
+            if mode == HANG:
+                continue
+            if mode == GRAPPLE:
+                # fists thrown and rebounding off a chest fold the elbows up (to 164-177
+                # degrees before); a reaching or carrying hand keeps to the hinge alone
+                unfold(pos, prev, s, e, w)
             length = 0.0
             for a, b in ((s, e), (e, w)):
                 length += math.sqrt((pos[a, 0] - pos[b, 0]) ** 2 + (pos[a, 1] - pos[b, 1]) ** 2

@@ -1,14 +1,14 @@
-"""gait: stepping (SPEC 3) - the human walk, and the system that runs both gaits.
+"""gait: stepping (SPEC 3) - a human walk and run at every body size (docs/locomotion.md).
 
-Reads the character table (walk vector, gait, posture mode, step timers) and foot, hip
-and pelvis nodes; writes foot, knee and hand velocities (through ``prev``), foot
-accelerations (the swing arc's lighter gravity), node flags and move timers. Characters
-whose ``gait`` is "classic" step with :mod:`twig_ecs.systems.gait_classic`; the rest walk
-as below (docs/locomotion.md).
+Reads the character table (walk vector, posture mode, step timers) and foot, hip and
+pelvis nodes; writes foot, knee and hand velocities (through ``prev``), foot
+accelerations (the swing arc's lighter gravity), node flags and move timers.
 
-Dynamic similarity: the walk speed is capped at Froude 0.5 and the step length follows
-the Froude number (kernelmath), so the cadence goes with sqrt(g / L). Walking, the feet
-take turns on a clock, one step per period, in the air 80% of it. A planted foot is locked
+Dynamic similarity: the pace is capped at Froude 1.5, it walks below Froude 0.5 and runs
+above, and the step length follows the Froude number (kernelmath), so the cadence goes
+with sqrt(g / L). Walking, the feet take turns on a clock, one step per period, in the
+air 80% of it; running, each foot is in the air 1.2 periods, so both are up for a while
+(the flight). A planted foot is locked
 (static friction); a step unlocks a foot and sends it on a flat ballistic arc to land
 ahead of where its hip will be. In flight the foot is guided every frame
 (:func:`guide_foot`): re-aimed as the hip moves, its landing kept within the leg's reach,
@@ -21,13 +21,13 @@ under its hip or the body is pushed.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
     HANG,
-    HUMAN,
     L_FOOT,
     L_HAND,
     L_HIP,
@@ -38,6 +38,7 @@ from twig_ecs.kernelmath import (
     clamp,
     forward_xz,
     step_length,
+    swing_share,
     walk_speed,
 )
 from twig_ecs.store import (
@@ -49,10 +50,8 @@ from twig_ecs.store import (
     columns,
 )
 from twig_ecs.system import System
-from twig_ecs.systems.gait_classic import GaitColumns, control_gait_classic
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
-SWING_SHARE = 0.8  # of the step period a foot is in the air: both feet are down the rest (~20%)
 LIFT = 0.14  # of the leg's length: the top of a foot's arc above the ground
 LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
 MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
@@ -67,7 +66,9 @@ GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (on
 HURRY = 0.99  # of the leg's length: a planted leg this straight (its foot behind or to the side)
 # brings the swinging foot down now
 HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far from under the hip
-FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes (4.4 m/s for an adult)
+FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes walking (4.4 m/s for an adult)
+RUN_FOOT_SPEED = 2.5  # of the pace: running, a swinging foot may go this fast (it covers two steps
+# in 1.2 step periods running, 1.7 times the pace on average)
 HURRY_TIME = 0.1  # s: how soon a hurried swing lands
 KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
@@ -78,13 +79,38 @@ STRAY = 0.02  # of the leg's length: a foot this far up after its step period is
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
 
 
+class GaitColumns(NamedTuple):
+    """The node and character-table columns the gait kernel reads and writes (named as in
+    ``store.NODE_FIELDS`` and ``store.CHARACTER_FIELDS``)."""
+
+    pos: np.ndarray
+    prev: np.ndarray
+    acc: np.ndarray
+    lock_pos: np.ndarray
+    flags: np.ndarray
+    move_time: np.ndarray
+    move_gravity: np.ndarray
+    radius: np.ndarray
+    nodes: np.ndarray  # characters' node rows by role
+    mode: np.ndarray
+    walk: np.ndarray
+    swing: np.ndarray
+    last_step: np.ndarray
+    steps: np.ndarray
+    arm_mode: np.ndarray
+    scale: np.ndarray
+    leg_length: np.ndarray
+
+
 @njit(cache=True, inline="always")
 def step_timing(speed, leg, g):
-    """(walk speed, step length, step period, time in the air) for a walk of ``speed``.
+    """(pace, step length, step period, a foot's time in the air) when asked for ``speed``.
 
     Dynamic similarity: the step length over the leg's length follows the Froude number
-    (kernelmath.step_length), so the cadence scales with sqrt(g / L); standing (speed 0),
-    a balance step takes STILL_STEP natural times.
+    (kernelmath.step_length), so the cadence scales with sqrt(g / L). Past the walk's
+    Froude limit it runs: a foot flies longer than a step period (kernelmath.swing_share),
+    so both are in the air for a while each step (the flight phase). Standing (speed 0), a balance step takes
+    STILL_STEP natural times.
     """
     v = walk_speed(speed, leg, g)
     if v < 0.01:
@@ -92,7 +118,7 @@ def step_timing(speed, leg, g):
         return 0.0, 0.0, t, t
     step = step_length(v, leg, g)
     period = step / v
-    return v, step, period, SWING_SHARE * period
+    return v, step, period, swing_share(v, leg, g) * period
 
 
 @njit(cache=True, inline="always")
@@ -139,8 +165,8 @@ def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t
 
 
 @njit(cache=True)
-def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, gravity,
-               dt):
+def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, fastest,
+               gravity, dt):
     """In-flight guidance of a swinging foot (a step's or a kick's), once a frame.
 
     A flying foot is kinematic (NODE_MOVING: infinite mass to the constraints), so a foot
@@ -150,7 +176,8 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
     rest taken off through ``acc``); any move's landing is pulled in to where the leg
     reaches from where the hip will be (a kick within reach flies as launched); and the
     foot's next position is kept within GUIDE_REACH leg lengths of its hip's.
-    ``o`` is the other foot's node when it is planted, else -1.
+    ``o`` is the other foot's node when it is planted, else -1; ``fastest``: the top speed
+    (m/s) of a re-aimed foot.
     """
     i = nd[L_FOOT + f]
     h = nd[L_HIP + f]
@@ -163,7 +190,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
     else:
         k_arc = 1.0
     if t > GUIDE_STEPS * dt:
-        aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, gravity, dt)
+        aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, fastest, gravity, dt)
     if flags[i] & NODE_MOVING:
         # a kinematic foot is not pulled back by its leg: where it goes next stays within
         # reach of where its hip goes (moving pos and prev together keeps its speed)
@@ -179,7 +206,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
 
 
 @njit(cache=True)
-def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, gravity, dt):
+def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, fastest, gravity, dt):
     """Set a flying foot's velocity (through ``prev``) to land in reach (see guide_foot)."""
     h = nd[L_HIP + f]
     p = nd[PELVIS]
@@ -214,9 +241,8 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
         lz = hz + oz * flat / off
     elif not aim:
         return  # a kick within reach flies as launched
-    g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     far = math.sqrt((lx - pos[i, 0]) ** 2 + (lz - pos[i, 2]) ** 2)
-    most_far = FOOT_SPEED * math.sqrt(g * legs) * t
+    most_far = fastest * t
     if far > most_far:
         # no faster than a swinging foot goes, and on time: it lands short instead (a
         # flight stretched to follow a target that keeps moving never lands)
@@ -230,9 +256,8 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
 
 @njit(cache=True)
 def control_gait(args, n_chars, gravity, dt):
-    """Guide, plant, unlock and launch feet for every standing character with the human walk
-    (``args``: ``store.columns(GaitColumns, nodes, characters)``, see
-    :class:`~twig_ecs.systems.gait_classic.GaitColumns`)."""
+    """Guide, plant, unlock and launch feet for every standing character (``args``:
+    ``store.columns(GaitColumns, nodes, characters)``)."""
     cols = GaitColumns(*args)
     pos, prev, acc = cols.pos, cols.prev, cols.acc
     lock_pos, flags, radius = cols.lock_pos, cols.flags, cols.radius
@@ -240,11 +265,9 @@ def control_gait(args, n_chars, gravity, dt):
     nodes, mode, walk = cols.nodes, cols.mode, cols.walk
     swing, last_step = cols.swing, cols.last_step
     steps, arm_mode, scale = cols.steps, cols.arm_mode, cols.scale
-    leg_length, gait = cols.leg_length, cols.gait
+    leg_length = cols.leg_length
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
-        if gait[c] != HUMAN:
-            continue
         nd = nodes[c]
         for f in range(2):
             swing[c, f] = max(0.0, swing[c, f] - dt)
@@ -263,12 +286,15 @@ def control_gait(args, n_chars, gravity, dt):
         # is LIFT leg lengths up whatever the step's time (a full g over a child's step
         # would be a skip, over an adult's a march)
         k_arc = min(1.0, 8.0 * LIFT * legs / (t_fly * t_fly) / g)
+        run = moving and t_fly > t_step
+        fastest = max(FOOT_SPEED * math.sqrt(g * legs), RUN_FOOT_SPEED * v if run else 0.0)
         for f in range(2):
             i = nd[L_FOOT + f]
             if move_time[i] > 0.0 and not flags[i] & NODE_LOCKED:
                 o = nd[L_FOOT + 1 - f]
                 ho = nd[L_HIP + 1 - f]
-                if move_gravity[i] == MOVE_GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME:
+                if (move_gravity[i] == MOVE_GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME
+                        and not run):  # running, the planted foot pushes off instead
                     # the planted leg nearly straight behind its hip: this step comes down
                     # now (a foot left far behind drags the hip down and back)
                     ex = pos[o, 0] - pos[ho, 0]
@@ -281,7 +307,7 @@ def control_gait(args, n_chars, gravity, dt):
                 tx, tz = landing_target(pos, prev, nd, f, o if flags[o] & NODE_LOCKED else -1, dx, dz, moving,
                                         v, step, legs, move_time[i], dt)
                 guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f,
-                           o if flags[o] & NODE_LOCKED else -1, tx, tz, k_arc, legs, gravity, dt)
+                           o if flags[o] & NODE_LOCKED else -1, tx, tz, k_arc, legs, fastest, gravity, dt)
         # plant: a foot on the ground that is not mid-step locks in place; a planted
         # foot whose leg is pulled past its length slips (static friction gives way)
         for f in range(2):
@@ -311,8 +337,8 @@ def control_gait(args, n_chars, gravity, dt):
                 for k in range(3):
                     prev[i, k] = pos[i, k]
                     lock_pos[i, k] = pos[i, k]  # held where it stands (not where it last stood)
-        if swinging(flags, move_time, nd[L_FOOT]) or swinging(flags, move_time, nd[L_FOOT + 1]):
-            continue  # one foot at a time
+        if not run and (swinging(flags, move_time, nd[L_FOOT]) or swinging(flags, move_time, nd[L_FOOT + 1])):
+            continue  # walking (or standing), one foot at a time
         # one step per step period, unless a leg is stretched (below)
         due = swing[c, 0] == 0.0 and swing[c, 1] == 0.0
         # which foot steps? walking, the other one than last time, once a step period
@@ -331,8 +357,11 @@ def control_gait(args, n_chars, gravity, dt):
             if not flags[i] & NODE_LOCKED and not stray:
                 continue  # mid-step
             o = nd[L_FOOT + 1 - f]
-            if not stray and move_time[o] > 0.0 and not flags[o] & NODE_LOCKED:
-                continue  # the other foot is still in the air (knocked off its arc): no support to step from
+            if not stray and move_time[o] > 0.0 and not flags[o] & NODE_LOCKED and not (run and swinging(
+                    flags, move_time, o)):
+                # the other foot is still in the air (knocked off its arc): no support to
+                # step from (running, the push-off leaves both feet in the air: the flight)
+                continue
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
             ey = pos[i, 1] - pos[h, 1]
@@ -409,7 +438,7 @@ def control_gait(args, n_chars, gravity, dt):
 
 
 class GaitSystem(System):
-    """Steps the feet of every standing character towards its walk vector (its ``gait``'s kernel)."""
+    """Steps the feet of every standing character towards its walk vector."""
 
     name = "gait"
 
@@ -422,7 +451,6 @@ class GaitSystem(System):
         g = self.scene.settings.gravity
         args = columns(GaitColumns, n, ch)
         control_gait(args, ch.count, g, dt)
-        control_gait_classic(args, ch.count, g, dt)
 
 
 __all__ = ["GaitSystem", "PELVIS", "R_HAND"]

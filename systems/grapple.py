@@ -25,6 +25,7 @@ PUNCH_SPEED = 8.0  # m/s of a thrown fist (at 1.75 m tall; a smaller fighter thr
 SHOVE_SPEED = 3.0  # m/s of the two hands of a shove (at 1.75 m tall)
 APPROACH = 1.4  # m/s: a fighter walks up briskly
 FOLLOW = 0.9  # m/s: it steps after a target that backs off, at a walk (not a chase)
+EDGE_IN = 0.4  # m/s (at 1.75 m tall): within reach but beyond arm's length, it edges in
 LET_GO = 1.5  # s out of reach after which the target has got away: the fight is over
 
 
@@ -67,7 +68,13 @@ class Grapple(Behavior):
             character.walk(tuple(toward * FOLLOW * scale**0.5))
             return
         m["in_reach"] = now
-        character.stop()
+        if gap > ARMS_LENGTH * scale:
+            # a little beyond arm's length (it stopped short, or the target leaned back):
+            # edge in while the blows go on, else the fists fall short
+            toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
+            character.walk(tuple(toward * EDGE_IN * scale**0.5))
+        else:
+            character.stop()
         m["fought"] = fought = m.get("fought", 0.0) + dt
         blow = int(fought / PUNCH)
         if m.get("blow") != blow:

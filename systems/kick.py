@@ -23,9 +23,14 @@ FEET = ("l_foot", "r_foot")
 
 
 def foot_busy(character) -> bool:
-    """Is either foot of ``character`` in a step or a kick right now?"""
-    ch = character.scene.state.characters
-    return bool((ch.swing[character._crow] > 0.0).any())
+    """Is either foot of ``character`` in the air in a step or a kick right now?
+
+    Its flight, not the gait's step timer: walking, that timer runs the whole step period,
+    feet down included, so a walker lining up slowly would never be free to kick.
+    """
+    n = character.scene.state.nodes
+    rows = [character._row(f) for f in FEET]
+    return bool(any(n.move_time[i] > 0.0 and not n.flags[i] & NODE_LOCKED for i in rows))
 
 
 def launch_kick(character, foot: str, target, duration: float) -> None:

@@ -25,7 +25,6 @@ from numba import njit
 
 from twig_ecs.kernelmath import (
     HEAD,
-    HUMAN,
     L_FOOT,
     L_HIP,
     L_KNEE,
@@ -55,13 +54,13 @@ BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing st
 WALK_GAIN = 15.0  # 1/s: pelvis velocity towards the walk vector
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
 YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
-LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity
+LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity (at 1.75 m tall; by scale)
 LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
 WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
-WALK_SINK = 0.07  # m of pelvis height per m/s of walking (at 1.75 m tall), classic gait
 HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
+MAX_PITCH = math.radians(25.0)  # the most the upright control leans the torso from the vertical
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
@@ -96,7 +95,6 @@ class PostureColumns(NamedTuple):
     lean: np.ndarray
     scale: np.ndarray
     leg_length: np.ndarray
-    gait: np.ndarray
 
 
 # fmt: off
@@ -109,7 +107,7 @@ def control_posture(args, n_chars, gravity, dt):
     move_time, nodes, mode, mode_time, walk = cols.move_time, cols.nodes, cols.mode, cols.mode_time, cols.walk
     seat, head_dir = cols.seat, cols.head_dir
     stand_height, crouch, lean = cols.stand_height, cols.crouch, cols.lean
-    scale, leg_length, gait = cols.scale, cols.leg_length, cols.gait
+    scale, leg_length = cols.scale, cols.leg_length
     g = math.sqrt(gravity[0] ** 2 + gravity[1] ** 2 + gravity[2] ** 2)
     for c in range(n_chars):
         if mode[c] == LIMP:
@@ -142,8 +140,7 @@ def control_posture(args, n_chars, gravity, dt):
         step = 0.0
         t_fly = 1.0
         target_vy = 0.0
-        human = gait[c] == HUMAN
-        if moving and g > 1e-6 and human:
+        if moving and g > 1e-6:
             # the gait decides the top speed per body size (kernelmath.walk_speed); the
             # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
             sp = math.sqrt(wx * wx + wz * wz)
@@ -173,10 +170,7 @@ def control_posture(args, n_chars, gravity, dt):
             target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
         else:
             target_y = stand_height[c]
-            if not human:
-                # the classic gait: walking, the pelvis sinks a little so the legs reach further
-                target_y -= WALK_SINK * scale[c] * min(math.sqrt(wx * wx + wz * wz), 3.0)
-            elif step > 0.0:
+            if step > 0.0:
                 # walking, the hip rides on nearly straight legs (an inverted pendulum):
                 # as high as the planted legs, WALK_HEIGHT of their length, hold it over
                 # their feet - highest when it passes over the foot, lowest with the
@@ -218,7 +212,7 @@ def control_posture(args, n_chars, gravity, dt):
             # no lurches: a person changes pace at a fraction of g
             most = WALK_ACC * g
             a = math.sqrt(ax * ax + az * az)
-            if a > most and human:
+            if a > most:
                 ax *= most / a
                 az *= most / a
         else:
@@ -238,8 +232,19 @@ def control_posture(args, n_chars, gravity, dt):
         if mode[c] == RISE:
             tx, tz = feet_x, feet_z
         else:
-            tx = pos[p, 0] + LEAN * wx + lean[c, 0]
-            tz = pos[p, 2] + LEAN * wz + lean[c, 2]
+            # into the walk by as much for every body size at the same Froude number
+            tx = LEAN * scale[c] * wx + lean[c, 0]
+            tz = LEAN * scale[c] * wz + lean[c, 2]
+            # a lean into the walk or towards something (a stoop, a hug) bends the torso
+            # at most MAX_PITCH: further and a person would be falling, not leaning
+            most = math.sin(MAX_PITCH) * math.sqrt((pos[n, 0] - pos[p, 0]) ** 2 + (pos[n, 1] - pos[p, 1]) ** 2
+                                                   + (pos[n, 2] - pos[p, 2]) ** 2)
+            off = math.sqrt(tx * tx + tz * tz)
+            if off > most:
+                tx *= most / off
+                tz *= most / off
+            tx += pos[p, 0]
+            tz += pos[p, 2]
         vnx = (pos[n, 0] - prev[n, 0]) / dt - vpx
         vny = (pos[n, 1] - prev[n, 1]) / dt - vpy
         vnz = (pos[n, 2] - prev[n, 2]) / dt - vpz

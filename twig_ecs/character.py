@@ -24,7 +24,6 @@ from twig_ecs.handles import BodyHandle
 from twig_ecs.kernelmath import (
     ARM_MODES,
     CARRY,
-    GAITS,
     GAZE_AHEAD,
     GAZE_NODE,
     GAZE_POINT,
@@ -50,6 +49,8 @@ POSTURES = {STAND: "stand", SIT: "sit", RISE: "rise", LIMP: "limp"}
 GESTURES = ("wave", "point")
 #: The arm poses of :meth:`CharacterHandle.pose`.
 ARM_POSES = ("hang", "grapple", "hug", "carry")
+#: sin of the most a stoop bends the torso (25 degrees, posture's MAX_PITCH): knees bend instead.
+STOOP_LEAN = math.sin(math.radians(25.0))
 #: Height (m) of the reference humanoid; characters scale their gait by height / this.
 REFERENCE_HEIGHT = 1.75
 #: Standing pelvis height as a fraction of the template's: knees slightly bent.
@@ -257,18 +258,6 @@ class CharacterHandle(BodyHandle):
         return float(self._chars().stand_height[self._crow])
 
     @property
-    def gait(self) -> str:
-        """How it steps: "classic" (the default) or "human" (the Froude-scaled walk, docs/locomotion.md)."""
-        names = {v: k for k, v in GAITS.items()}
-        return names[int(self._chars().gait[self._crow])]
-
-    @gait.setter
-    def gait(self, name: str) -> None:
-        if name not in GAITS:
-            raise TwigError(f"'{self.name}': unknown gait '{name}'" + suggest(str(name), GAITS))
-        self._chars().gait[self._crow] = GAITS[name]
-
-    @property
     def last_foot(self) -> str:
         """The foot that stepped last: "left" or "right"."""
         return ("left", "right")[int(self._chars().last_step[self._crow])]
@@ -383,8 +372,9 @@ class CharacterHandle(BodyHandle):
     def stoop(self, towards: str | Sequence[float] | None) -> None:
         """Crouch and lean so the hands can get down to a low point (or entity); None: stand tall.
 
-        The shoulders lean towards it (up to 0.45 m at 1.75 m tall) and the pelvis
-        sinks (up to 45% of standing height) until they are within an arm's length.
+        The shoulders lean towards it (the torso up to 25 degrees from upright) and the
+        pelvis sinks (up to 55% of standing height: a squat) until they are within an
+        arm's length.
         """
         ch, row = self._chars(), self._crow
         if towards is None:
@@ -403,10 +393,11 @@ class CharacterHandle(BodyHandle):
             return
         ahead = (point - pos[self._role("pelvis")]) * np.array([1.0, 0.0, 1.0])
         ahead /= max(float(np.linalg.norm(ahead)), 1e-9)
-        lean = min(0.45 * scale, 0.8 * drop)
+        # the torso bends at most as far as posture leans it (25 degrees); the knees do the rest
+        lean = min(0.45 * scale, 0.8 * drop, STOOP_LEAN * torso)
         lowered = torso - math.sqrt(max(torso**2 - lean**2, 0.0))
         ch.lean[row] = ahead * lean
-        ch.crouch[row] = min(0.45 * ch.stand_height[row], max(0.0, drop - lowered))
+        ch.crouch[row] = min(0.55 * ch.stand_height[row], max(0.0, drop - lowered))
 
     def lean(self, offset: Sequence[float] | None) -> None:
         """Hold the shoulders ``offset`` (m, on the ground plane) ahead of the pelvis; None: upright."""

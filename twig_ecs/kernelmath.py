@@ -32,33 +32,50 @@ ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave
 # gaze modes (CHARACTER_FIELDS["gaze_mode"]), see systems/gaze.py: where the head turns to
 GAZE_AHEAD, GAZE_POINT, GAZE_NODE = 0, 1, 2  # the way it walks (or faces); gaze_point; gaze_node
 
-# gaits (CHARACTER_FIELDS["gait"]): the classic stepping (systems/gait_classic.py) or the
-# human walk (systems/gait.py, docs/locomotion.md)
-CLASSIC, HUMAN = 0, 1
-GAITS = {"classic": CLASSIC, "human": HUMAN}
 
-
-# -- the walk's proportions (dynamic similarity, docs/locomotion.md) -------------------
-#: Froude number v^2 / (g L) the gait caps the walk at: a person starts running near 0.5;
-#: beyond 0.2 this point-footed walk loses its rhythm (docs/locomotion.md).
+# -- the walk's and the run's proportions (dynamic similarity, docs/locomotion.md) ------
+#: Froude number v^2 / (g L) where the walk gives way to a run (a person changes near 0.5).
 WALK_FROUDE_MAX = 0.5
+#: Froude number the gait caps the run at: the one place the top speed per body size is
+#: decided (2.8 m/s for a 1.05 m child, 3.6 m/s for an adult).
+RUN_FROUDE_MAX = 1.5
 #: Step length / leg length = STEP_GAIN * Froude ** STEP_POWER (a person: 0.7-0.8 at 1.2 m/s).
 STEP_GAIN, STEP_POWER = 1.15, 0.3
+#: Running, the step grows faster with speed (a person at 3 m/s: ~1.3 leg lengths):
+#: step / leg = (the walk's longest step) * (Froude / WALK_FROUDE_MAX) ** RUN_STEP_POWER.
+RUN_STEP_POWER = 0.5
 #: Longest step period (s) per sqrt(L / g): people shuffle rather than step slower.
 MAX_STEP_PERIOD = 2.6
 
 
 @njit(cache=True, inline="always")
 def walk_speed(speed, leg, g):
-    """The walk speed a body with legs ``leg`` m long takes when asked for ``speed``: capped at
-    the Froude limit (the one place the top speed per body size is decided)."""
-    return min(speed, math.sqrt(WALK_FROUDE_MAX * g * leg))
+    """The pace a body with legs ``leg`` m long takes when asked for ``speed``: capped at the
+    run's Froude limit (the one place the top speed per body size is decided)."""
+    return min(speed, math.sqrt(RUN_FROUDE_MAX * g * leg))
+
+
+#: Share of a step period a foot is in the air: walking (both feet down the rest, ~20%),
+#: running (both up the last 0.2: the flight), blended over RUN_BLEND of Froude number
+#: round the transition so that a pace hovering at it does not switch gaits step by step.
+WALK_SHARE, RUN_SHARE, RUN_BLEND = 0.8, 1.2, 0.15
+
+
+@njit(cache=True, inline="always")
+def swing_share(speed, leg, g):
+    """How long a foot is in the air per step period at a pace of ``speed`` (already capped):
+    under 1 it walks (a double support), over 1 it runs (a flight)."""
+    fr = speed * speed / (g * leg)
+    k = min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
+    return WALK_SHARE + (RUN_SHARE - WALK_SHARE) * k
 
 
 @njit(cache=True, inline="always")
 def step_length(speed, leg, g):
-    """Step length (m) at a walk of ``speed`` (already capped) for legs ``leg`` m long."""
+    """Step length (m) at a pace of ``speed`` (already capped) for legs ``leg`` m long."""
     fr = speed * speed / (g * leg)
+    if fr > WALK_FROUDE_MAX:
+        return leg * STEP_GAIN * WALK_FROUDE_MAX**STEP_POWER * (fr / WALK_FROUDE_MAX) ** RUN_STEP_POWER
     by_froude = leg * STEP_GAIN * fr**STEP_POWER
     # very slow: a step never takes longer than MAX_STEP_PERIOD natural times
     return min(by_froude, speed * MAX_STEP_PERIOD * math.sqrt(leg / g))

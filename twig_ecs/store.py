@@ -137,7 +137,6 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): kernelmath.HANG, REACH... (systems/arms.py)
     "arm_point": (np.float64, (2, 3), 0.0),
     "arm_node": (np.int32, (2,), -1),
-    "gait": (np.int32, (), 0),  # kernelmath.CLASSIC stepping or HUMAN walk (kernelmath.GAITS)
     "swing": (np.float64, (2,), 0.0),  # s left in each foot's step (0: planted)
     "last_step": (np.int32, (), 1),  # foot that stepped last (0 left, 1 right)
     "steps": (np.int64, (), 0),

@@ -15,14 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from twig_ecs.kernelmath import GAITS
-
 #: Nodes a track records.
 TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot")
 #: Body heights (m) the lab measures: a small child, a big child, an adult.
 SIZES = (1.05, 1.35, 1.75)
-#: Walk speeds (m/s) the lab asks each size for.
-SPEEDS = (0.8, 1.0, 1.2, 1.6)
+#: Speeds (m/s) the lab asks each size for: walks, and a run (2.4 m/s: Froude 0.6-1.1).
+SPEEDS = (0.8, 1.0, 1.2, 1.6, 2.4)
 
 
 @dataclass
@@ -111,6 +109,7 @@ def walk_figures(track: Track) -> dict[str, float]:
     out["pelvis"] = float(track.pos["pelvis"][:, 1].mean() / track.stand_height)
     out["bob"] = float(np.ptp(track.pos["pelvis"][:, 1]))
     out["double"] = float(np.mean(track.locked[:, 0] & track.locked[:, 1]))
+    out["flight"] = float(np.mean(~track.locked[:, 0] & ~track.locked[:, 1]))  # a run's both feet up
     # foot lift: the highest a foot's bottom gets between lifting off and landing
     lifts = []
     for f in range(2):
@@ -146,20 +145,18 @@ def _scene():
     return Scene.load("empty")
 
 
-def _walker(scene, name: str, height: float, gait: str):
-    """A ``height`` m character with ``gait`` standing in ``scene`` after half a second to settle."""
+def _walker(scene, name: str, height: float):
+    """A ``height`` m character standing in ``scene`` after half a second to settle."""
     person = scene.spawn("humanoid", name=name, height=height, character=True)
-    person.gait = gait
     scene.run(0.5)
     return person
 
 
-def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: float = 5.0,
-                 gait: str = "human") -> dict[str, float]:  # fmt: skip
+def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: float = 5.0) -> dict[str, float]:
     """Figures of a ``height`` m character walking straight at ``speed`` m/s (after ``settle`` s)."""
     scene = _scene()
     try:
-        person = _walker(scene, "walker", height, gait)
+        person = _walker(scene, "walker", height)
         legs = leg_length(person)
         person.walk((0.0, 0.0, speed))
         scene.run(settle)
@@ -171,11 +168,11 @@ def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: floa
         scene.close()
 
 
-def measure_uturn(height: float, speed: float = 1.2, gait: str = "human") -> float:
+def measure_uturn(height: float, speed: float = 1.2) -> float:
     """Largest torso pitch (degrees) of a ``height`` m character turning back at ``speed``."""
     scene = _scene()
     try:
-        person = _walker(scene, "turner", height, gait)
+        person = _walker(scene, "turner", height)
         person.walk((0.0, 0.0, speed))
         scene.run(3.0)
         person.walk((0.0, 0.0, -speed))
@@ -215,19 +212,20 @@ HUMAN = {
     "step": "adult 1.2 m/s: 0.65-0.75 m (~0.4 x height)",
     "knee": "stance 5-20 deg",
     "pelvis": "close to standing (>= 0.9), bob 2-5 cm",
-    "double": "~0.20 at a normal walk, less faster",
+    "double": "~0.20 at a normal walk, less faster; none running",
+    "flight": "0 walking; running 0.1-0.3 (both feet up)",
     "lift": "a few cm at the toe, visibly at the heel",
     "uturn": "upright: a few degrees (<= 30 here)",
     "idle": "0 (step only when balance needs it)",
 }
 
 
-def table(sizes=SIZES, speeds=SPEEDS, gait: str = "human") -> list[dict[str, float]]:
+def table(sizes=SIZES, speeds=SPEEDS) -> list[dict[str, float]]:
     """One row of walk figures per (size, speed) the lab runs."""
     rows = []
     for h in sizes:
         for v in speeds:
-            row = measure_walk(h, v, gait=gait)
+            row = measure_walk(h, v)
             row["height"], row["asked"] = h, v
             rows.append(row)
     return rows
@@ -237,14 +235,15 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
     """The lab's printed report: walk table, U-turn pitch and idle re-steps beside a person's."""
     lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
     head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
-            f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'lift cm':>7} "
+            f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'flight':>6} {'lift cm':>7} "
             f"{'ahead cm':>8}")  # fmt: skip
     lines += [head, "-" * len(head)]
     for r in rows:
         lines.append(
             f"{r['height']:6.2f} {r['asked']:5.2f} {r['speed']:5.2f} {r['froude']:5.2f} {r['cadence']:7.2f} "
             f"{r['step']:6.2f} {r['step'] / r['legs']:6.2f} {r['knee']:5.0f} {r['pelvis']:6.2f} "
-            f"{100 * r['bob']:6.1f} {r['double']:6.2f} {100 * r['lift']:7.1f} {100 * r['ahead']:8.1f}"
+            f"{100 * r['bob']:6.1f} {r['double']:6.2f} {r.get('flight', 0.0):6.2f} {100 * r['lift']:7.1f} "
+            f"{100 * r['ahead']:8.1f}"
         )
     lines += [
         "",
@@ -264,7 +263,7 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
 
 def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, frames: int = 12,
                   every: float = 0.1, size: tuple[int, int] = (320, 320),
-                  columns: int = 6, gait: str = "human") -> Path:  # fmt: skip
+                  columns: int = 6) -> Path:  # fmt: skip
     """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
     from PIL import Image
 
@@ -274,7 +273,7 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
     path = check_output(output)
     scene = _scene()
     try:
-        person = _walker(scene, "walker", height, gait)
+        person = _walker(scene, "walker", height)
         person.walk((0.0, 0.0, speed))
         scene.run(2.5)
         rows = math.ceil(frames / columns)
@@ -294,14 +293,14 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
         scene.close()
 
 
-def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS, gait: str = "human") -> str:
-    """Measure everything with ``gait`` and write the contact sheet; returns the printed report."""
-    rows = table(sizes, speeds, gait)
-    uturns = {h: measure_uturn(h, gait=gait) for h in sizes}
-    text = f"Gait: {gait}\n" + format_report(rows, uturns, measure_idle())
+def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS) -> str:
+    """Measure everything and write the contact sheet; returns the printed report."""
+    rows = table(sizes, speeds)
+    uturns = {h: measure_uturn(h) for h in sizes}
+    text = format_report(rows, uturns, measure_idle())
     if sheet:
         text += f"\nContact sheet (side view, {sizes[-1]:.2f} m at 1.2 m/s, 0.1 s apart): "
-        text += str(contact_sheet(sheet, height=sizes[-1], gait=gait))
+        text += str(contact_sheet(sheet, height=sizes[-1]))
     return text
 
 
@@ -310,9 +309,7 @@ def register_commands(sub) -> None:
     p = sub.add_parser("walklab", help="measure the walk per body size and speed beside a person's")
     p.add_argument("--sheet", default="walklab.png", metavar="FILE.png",
                    help="side-view contact sheet to write (default walklab.png; '' for none)")  # fmt: skip
-    p.add_argument("--gait", default="human", choices=sorted(GAITS),
-                   help="the gait to measure (default human; classic is the scenes' default)")  # fmt: skip
-    p.set_defaults(func=lambda args: print(run_lab(args.sheet or None, gait=args.gait)) or 0)
+    p.set_defaults(func=lambda args: print(run_lab(args.sheet or None)) or 0)
 
 
 def main() -> None:
