@@ -106,6 +106,20 @@ def test_every_kernel_is_filed_by_our_cache_locator():
     assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
 
 
+def test_version_and_help_start_without_numba_or_the_scene():
+    probe = ("import sys; from twig_ecs.cli import main\n"
+             "try: main(sys.argv[1:])\n"
+             "except SystemExit: pass\n"
+             "heavy = ('numba', 'twig_ecs.scene', 'twig_ecs.kernels')\n"
+             "print(sorted(m for m in heavy if m in sys.modules))")  # fmt: skip
+    for args in (["--version"], ["--help"], ["run", "--help"]):
+        result = run_python("-c", probe, *args)
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.strip().endswith("[]"), (args, result.stdout[-300:])
+    lazy = run_python("-c", "import sys, twig_ecs; print('numba' in sys.modules, twig_ecs.Scene.__name__)")
+    assert lazy.stdout.split() == ["False", "Scene"]  # and the public names still import on use
+
+
 def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_path):
     blocker = tmp_path / "not-a-folder"
     blocker.write_text("a file where the cache folder would go")
