@@ -128,7 +128,7 @@ def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_
     version = run_python("-m", "twig_ecs", "--version", env=env)
     assert version.returncode == 0, version.stderr
     assert version.stdout.strip().startswith("twig-ecs ")
-    assert version.stderr.count("cannot write the kernel cache") == 1
+    assert "cannot write the kernel cache" not in version.stderr  # --version never touches the cache
     # the fallback is a real cache: seed it with this session's compiled kernels (when another
     # checkout sharing the cache folder has not just pruned them), then run
     here = kernels.cache_folder()
