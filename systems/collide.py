@@ -22,6 +22,7 @@ from numba import njit
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 from twig_ecs.systems.constrain import (
+    SETTLE_PASSES,
     NodeColumns,
     constraints_of,
     named_constraints,
@@ -29,6 +30,7 @@ from twig_ecs.systems.constrain import (
     project_limits,
     project_links,
     relax_once,
+    settle_shape,
 )
 
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
@@ -36,6 +38,8 @@ from twig_ecs.systems.constrain import (
 BROAD_MARGIN = 0.05
 #: Closing passes of only joint limits and links after the contact rounds.
 FINAL_PASSES = 4
+#: Rounds of a contact pass and a held thing's shape (``settle_shape``) after those.
+SETTLE_ROUNDS = 4
 #: A contact is resolved only where the contact points can move: their mobility (inverse mass
 #: seen through the lever s, 1 - s) must be at least this share of the nodes' own - a lever of
 #: 0.1 - else the free end would be swung depth / lever per pass.
@@ -434,10 +438,11 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
 
 
 @njit(cache=True)
-def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints):
+def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held):
     """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
-    constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`);
-    returns the residual penetration."""
+    constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`), then
+    the shapes of the loose things hands hold (``held``: ``state.held``, see
+    :func:`~twig_ecs.systems.constrain.settle_shape`); returns the residual penetration."""
     cols = ContactColumns(*contacts)
     c = named_constraints(constraints)
     nodes = c.nodes
@@ -457,6 +462,11 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints):
         project_limits(nodes, c.limits)
         project_links(nodes, c.links)
     project_limits(nodes, c.limits)  # limits have the last word
+    # ... but for a carried doll: its shape, settled between contact passes, so that it
+    # neither stretches (a few cm links on light nodes) nor sinks into its carrier
+    for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):
+        resolve_contacts(nodes, cols, pairs, n_pairs, bool(False), dt)  # noqa: UP018
+        settle_shape(nodes, c.links, held, SETTLE_PASSES)
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_pairs):
@@ -539,8 +549,9 @@ class CollideSystem(System):
         col = s.colliders
         if col.count < 2:
             s.stats[0] = 0.0
-            return
-        n_pairs = self.broad_phase()
-        s.stats[0] = solve_collisions(contacts_of(s), s.pairs, n_pairs, self.scene.settings.iterations, dt,
-                                      constraints_of(s))  # fmt: skip
-        s.n_pairs = n_pairs
+        else:
+            n_pairs = self.broad_phase()
+            iterations = self.scene.settings.iterations
+            s.stats[0] = solve_collisions(contacts_of(s), s.pairs, n_pairs, iterations, dt, constraints_of(s),
+                                          s.held)  # fmt: skip
+            s.n_pairs = n_pairs

@@ -21,9 +21,11 @@ from twig_ecs.system import System
 
 @njit(cache=True)
 def feel_impacts(
-    hit_energy, hit_by, col_body, n_col, pain, pain_threshold, pain_half_life, pain_gain, n_bodies, dt
+    hit_energy, hit_by, col_body, n_col, pain, pain_threshold, pain_half_life, pain_gain, n_bodies, dt, gentle
 ):
-    """Decay every pain level, then add each impact at or above its body's threshold."""
+    """Decay every pain level, then add each impact at or above its body's threshold, but
+    one from a thing the body holds or has just let go of (``gentle``: (holder, thing) body
+    rows, ``state.gentle``): what a child carries does not hurt it."""
     for b in range(n_bodies):
         pain[b] *= math.exp(-math.log(2.0) * dt / pain_half_life[b])
     for c in range(n_col):
@@ -31,8 +33,18 @@ def feel_impacts(
         if e <= 0.0 or hit_by[c] < 0:
             continue
         b = col_body[c]
-        if col_body[hit_by[c]] != b and e >= pain_threshold[b]:
+        ob = col_body[hit_by[c]]
+        if ob != b and e >= pain_threshold[b] and not is_gentle(gentle, b, ob):
             pain[b] += pain_gain[b] * e
+
+
+@njit(cache=True, inline="always")
+def is_gentle(gentle, holder, thing):
+    """Is ``thing`` a body that ``holder`` holds or just let go of (a row of ``gentle``)?"""
+    for k in range(gentle.shape[0]):
+        if gentle[k, 0] == holder and gentle[k, 1] == thing:
+            return True
+    return False
 
 
 class SenseSystem(System):
@@ -55,6 +67,7 @@ class SenseSystem(System):
             bodies.pain_gain,
             bodies.count,
             dt,
+            s.gentle,
         )
         # Events are rare (only real impacts), so building them in Python is cheap.
         struck = np.flatnonzero(col.hit_energy[: col.count] >= self.scene.settings.contact_energy)
@@ -69,7 +82,7 @@ class SenseSystem(System):
             # one contact event per pair: the side with the lower index reports it
             if c < other or int(col.hit_by[other]) != c:
                 self.scene.emit(Contact(body_e, part, other_e, other_part, energy))
-            if energy >= bodies.pain_threshold[b]:
+            if energy >= bodies.pain_threshold[b] and not is_gentle(s.gentle, b, ob):
                 level = float(bodies.pain[b])
                 self.scene.emit(Pain(body_e, part, other_e, energy, level))
 

@@ -196,3 +196,75 @@ def test_twig_run_report_json_has_the_interaction_figures(capsys, seed):
     assert figures["kicks"]["ball"]["speed_ups"] >= 1
     assert figures["yard"]["max_outside_m"] == 0.0 and figures["yard"]["escaped"] == []
     assert figures["carried"]["ragdoll"]["frames"] == report["frames"]
+
+
+CARRIER = (
+    "  - {name: child, body: humanoid, height: 1.05, position: [0, 0, 0], facing: 0,\n"
+    "     character: {hold: doll}, pain: {threshold: 0.8}}\n"
+    "  - {name: doll, body: ragdoll, position: [0.144, 0.227, 0.0], facing: 0}  # spine at the left hand\n"
+)
+
+
+def test_a_carried_doll_keeps_its_shape_and_stays_out_of_its_carrier_while_the_child_runs_and_turns(
+    tmp_path, scenes
+):
+    scene = _scene(tmp_path, scenes, CARRIER)
+    child = scene.character_handle(scene.entity("child").entity)
+    recorder = InteractionRecorder(scene)
+    scene.step(0)
+    # run one way, turn on the spot, run back, then sideways: the doll swings about
+    for velocity in ((0, 0, 1.6), (0, 0, -1.6), (1.6, 0, 0), (-1.2, 0, 1.2)):
+        child.walk(velocity)
+        for _ in range(2 * 60):
+            scene.step()
+            recorder.step()
+    assert child.holding, "it still holds the doll"
+    doll = recorder.report()["carried"]["doll"]
+    assert doll["frames"] == 8 * 60
+    assert doll["max_link_error"] <= 0.02, "every link of the doll within 2 % of its length"
+    assert doll["max_pain_to_holder_j"] == 0.0, "its own doll never hurts it"
+
+
+def test_a_grab_eases_out_to_its_standoff_rather_than_jumping_to_it(tmp_path, scenes):
+    from twig_ecs.systems.constrain import GRAB_CLOSING
+
+    scene = _scene(tmp_path, scenes, CARRIER)
+    child = scene.character_handle(scene.entity("child").entity)
+    doll = scene.entity("doll")
+    scene.run(1.0)
+    assert np.linalg.norm(child.node("l_hand") - doll.node("spine")) < 0.01, "held in the hand"
+    child.release()
+    child.grab("doll", hand="left", node="spine", standoff=0.08)
+    apart = [float(np.linalg.norm(child.node("l_hand") - doll.node("spine")))]
+    for _ in range(30):
+        scene.step()
+        apart.append(float(np.linalg.norm(child.node("l_hand") - doll.node("spine"))))
+    # from inside the doll out to the standoff at the closing speed, not in one jump
+    assert max(np.diff(apart)) <= 1.5 * GRAB_CLOSING * scene.dt
+    assert abs(apart[-1] - 0.08) < 0.005, "then held at the standoff"
+
+
+def test_nothing_slips_between_the_fence_boards(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        "  - {name: fence, body: fence, position: [-2.5, 0, 1], facing: 0}\n"  # along x at z = 1
+        "  - {name: doll, body: ragdoll, position: [0, 0.3, 0], facing: 0}\n",
+    )
+    st = scene.state
+    # the boards: no gap between two of them a doll's foot (its thinnest part) fits through
+    fence = scene.entity("fence").body
+    rows = range(fence.link_start, fence.link_start + fence.link_count)
+    y = st.nodes.pos[:, 1]
+    level = [r for r in rows if y[st.links.a[r]] == y[st.links.b[r]]]
+    boards = sorted({round(float(y[st.links.a[r]]), 3): float(st.links.radius[r]) for r in level}.items())
+    gaps = [(y1 - r1) - (y0 + r0) for (y0, r0), (y1, r1) in zip(boards, boards[1:], strict=False)]
+    doll = scene.entity("doll")
+    thinnest = 2 * st.nodes.radius[doll.body.node_start : doll.body.node_start + len(doll.node_names)].min()
+    assert len(boards) >= 6 and max(gaps) < thinnest
+    assert boards[0][0] - boards[0][1] < 0.03, "no gap under the lowest board either"
+    # thrown at the fence, the doll bounces off it, all of it on its own side
+    doll.set_velocity((0.0, 1.0, 5.0))
+    for _ in range(2 * 60):
+        scene.step()
+        assert doll.node_positions[:, 2].max() < 1.0

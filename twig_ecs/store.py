@@ -327,6 +327,13 @@ class PhysicsState:
         #: Grab joints let go of lately, as [node a, node b, steps left]: the arm and what
         #: it held keep ignoring each other for a moment while the arm draws back out
         self.released: list[list[int]] = []
+        #: The loose things hands hold (a doll; not a character, nothing fixed), as rows of
+        #: (first node, end node, first link, end link); the collide system settles their
+        #: shape last (``constrain.settle_shape``)
+        self.held = np.zeros((0, 4), dtype=np.int64)
+        #: (holder body, thing body): a loose thing held or just let go of, which cannot
+        #: hurt its holder (the sense system feels no pain from it)
+        self.gentle = np.zeros((0, 2), dtype=np.int64)
 
     # -- growth -----------------------------------------------------------------
 
@@ -448,6 +455,8 @@ class PhysicsState:
             for hand, elbow in ((ROLES.index("l_hand"), ROLES.index("l_elbow")),
                                 (ROLES.index("r_hand"), ROLES.index("r_elbow"))):  # fmt: skip
                 elbow_of[int(ch.nodes[c, hand])] = int(ch.nodes[c, elbow])
+        self.held = self._loose_held(grabs)
+        self.gentle = self._gentle_pairs(grabs)
         held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
         held_pairs += [(a, b) for a, b, _ in self.released]
         for a, b in held_pairs:
@@ -462,6 +471,36 @@ class PhysicsState:
                 elif int(col.a[c]) in arm_b or int(col.b[c]) in arm_b:
                     _ignore(col.ignore, c, ba)
         self.version += 1
+
+    def _loose_held(self, grabs: np.ndarray) -> np.ndarray:
+        """The bodies held by the grab joints ``grabs`` that are loose things - not a
+        character's body (a hug, hand in hand), no node locked (a ride's bar) - as rows of
+        (first node, end node, first link, end link): a body's rows are contiguous."""
+        n, lk = self.nodes, self.links
+        characters = set(self.characters.body[: self.characters.count].tolist())
+        out = []
+        for body in sorted({int(n.body[lk.b[g]]) for g in grabs} - characters):
+            nodes = np.flatnonzero(n.body[: n.count] == body)
+            links = np.flatnonzero((lk.body[: lk.count] == body) & ((lk.flags[: lk.count] & LINK_GRAB) == 0))
+            if not len(links) or (n.flags[nodes] & NODE_LOCKED).any():
+                continue
+            out.append((nodes[0], nodes[-1] + 1, links[0], links[-1] + 1))
+        return np.array(out, dtype=np.int64).reshape(-1, 4)
+
+    def _gentle_pairs(self, grabs: np.ndarray) -> np.ndarray:
+        """(holder body, thing body) rows: each loose thing a hand holds or has let go of
+        within the release grace, and the body of that hand - it cannot hurt its holder."""
+        n = self.nodes
+        pairs = [(int(self.links.a[g]), int(self.links.b[g])) for g in grabs]
+        pairs += [(a, b) for a, b, _ in self.released]
+        characters = set(self.characters.body[: self.characters.count].tolist())
+        out = set()
+        for a, b in pairs:
+            holder, thing = int(n.body[a]), int(n.body[b])
+            rows = n.body[: n.count] == thing
+            if thing not in characters and not (n.flags[: n.count][rows] & NODE_LOCKED).any():
+                out.add((holder, thing))
+        return np.array(sorted(out), dtype=np.int64).reshape(-1, 2)
 
     def release_grace(self, a: int, b: int, steps: int) -> None:
         """Keep the arm at node ``a`` and the body of node ``b`` (or the other way round)
