@@ -268,3 +268,26 @@ def test_nothing_slips_between_the_fence_boards(tmp_path, scenes):
     for _ in range(2 * 60):
         scene.step()
         assert doll.node_positions[:, 2].max() < 1.0
+
+
+def test_a_doll_cannot_hurt_the_child_holding_it_but_it_can_once_let_go(tmp_path, scenes):
+    scene = _scene(tmp_path, scenes, CARRIER)
+    child = scene.character_handle(scene.entity("child").entity)
+    doll = scene.entity("doll")
+    scene.run(1.0)
+
+    def fling_doll_at_child() -> float:
+        """Throw the doll hard at the child's chest; the pain the child felt (J)."""
+        hurt = []
+        scene.on("pain", lambda e: hurt.append(e.energy) if e.body == child.entity else None)
+        toward = (child.node("spine") - doll.node("spine")) * np.array([1.0, 0.0, 1.0])
+        doll.set_velocity(tuple(8.0 * toward / np.linalg.norm(toward) + np.array([0.0, 1.0, 0.0])))
+        scene.run(0.5)
+        return max(hurt, default=0.0)
+
+    assert fling_doll_at_child() == 0.0, "what it holds does not hurt it"
+    child.release()
+    scene.run(1.0)  # past the release grace (1/3 s)
+    doll.translate(tuple((child.position + np.array([0.6, 0.0, 0.0]) - doll.position) * np.array([1, 0, 1])))
+    scene.run(0.1)
+    assert fling_doll_at_child() > 0.0, "the same doll thrown at it by then does"
