@@ -39,6 +39,9 @@ def target_point(character, target) -> np.ndarray:
 
 
 _FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Per scene: (store version, static bodies, their collidable link rows). Static bodies do not
+#: move and their links change only with the store's layout, so the rows are found once.
+_WALLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @njit(cache=True)
@@ -86,10 +89,14 @@ def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, 
     links = state.links
     walls = {}
     if static.any():  # (a crowd has none: no pass over every link)
-        collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
-        walls = {
-            int(b): np.flatnonzero(collide & (links.body[: links.count] == b)) for b in np.flatnonzero(static)
-        }
+        bodies = tuple(np.flatnonzero(static).tolist())
+        known = _WALLS.get(scene)
+        if known is not None and known[0] == state.version and known[1] == bodies:
+            walls = known[2]
+        else:
+            collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
+            walls = {b: np.flatnonzero(collide & (links.body[: links.count] == b)) for b in bodies}
+            _WALLS[scene] = (state.version, bodies, walls)
     wide = (np.sqrt(spread) > WIDE) & ~static
     # bodies steered round as discs or walls, not by their nearest node
     blocked = wide | static
