@@ -52,31 +52,27 @@ MAX_DEPTH = 64
 MAX_BYTES = 16 * 1024 * 1024
 
 
-def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor,
-             budget: list[int], depth: int = 0) -> Any:  # fmt: skip
-    budget[0] -= 1
-    if budget[0] < 0:
-        raise SceneError(f"document too large: more than {MAX_VALUES} values (aliases expanded)", file)
+def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor) -> Any:
+    """The node as YDict/YList/scalars (its size and depth already checked by
+    :func:`_expanded_size`)."""
     line = node.start_mark.line + 1
-    if depth > MAX_DEPTH:  # deep nesting, or an alias that contains itself (&a [*a])
-        raise SceneError(f"nested more than {MAX_DEPTH} deep (or an alias refers to itself)", file, line)
     if isinstance(node, yaml.MappingNode):
         out = YDict()
         out.file, out.line, out.key_lines = file, line, {}
         for key_node, value_node in node.value:
-            key = _convert(key_node, file, constructor, budget, depth + 1)
+            key = _convert(key_node, file, constructor)
             if isinstance(key, (YDict, YList)):
                 raise SceneError("mapping keys must be plain values", file, key_node.start_mark.line + 1)
             if key in out:
                 raise SceneError(f"duplicate key '{key}'", file, key_node.start_mark.line + 1)
-            out[key] = _convert(value_node, file, constructor, budget, depth + 1)
+            out[key] = _convert(value_node, file, constructor)
             out.key_lines[key] = (file, key_node.start_mark.line + 1)
         return out
     if isinstance(node, yaml.SequenceNode):
         out = YList()
         out.file, out.line = file, line
         out.item_lines = [item.start_mark.line + 1 for item in node.value]
-        out.extend(_convert(item, file, constructor, budget, depth + 1) for item in node.value)
+        out.extend(_convert(item, file, constructor) for item in node.value)
         return out
     return constructor.construct_object(node, deep=True)
 
@@ -178,7 +174,7 @@ def parse_yaml(text: str, file: str = "<string>", trusted_source: bool = False) 
                 raise SceneError(
                     f"document too large: more than {MAX_VALUES} values (aliases expanded)", file
                 )
-            return _convert(root, file, loader, [MAX_VALUES])
+            return _convert(root, file, loader)
         finally:
             loader.dispose()
     except yaml.MarkedYAMLError as exc:
