@@ -38,6 +38,7 @@ class Target:
     point: tuple[float, float, float] | None = None
 
     def describe(self) -> str:
+        """The target in words for the menu and the status line."""
         if self.name is not None:
             return self.name
         x, _, z = self.point
@@ -81,7 +82,7 @@ def issue(scene, actor: str, behaviour: str, target: Target):
         raise TwigError(f"'{actor}' is not a character: it takes no commands")
     value = target.name if target.name is not None else [float(v) for v in target.point]
     if behaviour == "look_at":
-        handle.look_at(value if target.name is None else target.name)
+        handle.look_at(value)
         return None
     system = scene.behaviors.get(behaviour)
     if system is None or system.schema is None:
