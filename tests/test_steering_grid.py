@@ -93,17 +93,13 @@ def test_a_hundred_approachers_all_arrive():
         goals = [g for a, b in pairs for g in (a.approach(b.name), b.approach(a.name))]
         assert len(goals) == 100
         scene.run(12.0)
-        # KNOWN (issue 14's human walk, reported to #19): one pair (9), pushed a row down by
-        # its neighbours, ends 2.1 m apart either side of pair 8, which stands where it met:
-        # a dip in the approach field where each one's walk vector swings round every 0.3 s;
-        # the old scurry's overshoot got them out, the human walk dithers and the goals fail
-        # 'stuck'. Every other goal succeeds.
-        failed = [g for g in goals if g.status == "failed"]
-        assert len(failed) <= 2 and all(g.reason.startswith("stuck") for g in failed)
-        assert scene.event_counts["goal.done"] >= 98
-        for p, (a, b) in enumerate(pairs):
-            if goals[2 * p].status == "failed" or goals[2 * p + 1].status == "failed":
-                continue
+        # pair 9, pushed a row down by its neighbours, meets pair 8 standing where it met and
+        # pair 7 below: a dip in the field before the gap between them, where both walk
+        # vectors swing to and fro; after 2 s without headway they squeeze through (obstacles
+        # push less, no pursuit of each other's dithering) instead of failing 'stuck'
+        assert [g.status for g in goals].count("done") == 100, [(g.status, g.reason) for g in goals
+                                                                 if g.status != "done"]  # fmt: skip
+        for a, b in pairs:
             gap = np.hypot(*(a.position - b.position)[[0, 2]])
             assert 0.3 < gap < 0.6 + 0.3, (a.name, gap)  # met at about the stop distance, not through
 
