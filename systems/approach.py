@@ -9,6 +9,7 @@ drag use :func:`steer_to` for their own approach phases.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -29,6 +30,19 @@ STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
 WIDE = 1.0  # m: a body whose nodes spread further than this from its centre is steered round as a disc
 ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
+#: s without getting 10 cm closer after which two characters approaching each other squeeze:
+#: obstacles push them ``SQUEEZE`` times as hard and neither adds the other's pace (pursuit).
+#: Two people standing a body's width apart or more make a dip in the field before the gap
+#: between them (their pushes cancel in the gap, not before it), where the walk vector
+#: swings to and fro; two walkers there that pursue each other copy each other's dithering
+#: and drift off together, and their goals fail 'stuck'. Pushed less and heading for where
+#: the other is, they walk into the gap and the collisions see them past. Only that pair
+#: squeezes (``mutual`` rows of :func:`steer_goals`): a walker whose target does not come
+#: to meet it keeps the field it had (and the schoolyard computes what it did).
+#: Half the stall time, so the other half is left to get through before it gives up.
+SQUEEZE_AFTER = 0.5 * STALL_TIME
+SQUEEZE = 0.4
+SQUEEZE_HOLD = 2.0  # s a squeeze lasts once begun (headway on the way does not end it)
 
 
 def target_point(character, target) -> np.ndarray:
@@ -162,21 +176,21 @@ def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, ste
     higher than ``step_over``, into ``out``; returns how many.
 
     Bodies flagged in ``blocked`` (steered round another way) and those in ``skip`` are
-    left out. The candidates come from the grid cells the disc touches, visited in
-    ascending node order, so the result - which node wins a tie, and the order of the
-    bodies (by their first node in reach) - is the same as scanning every node.
-    ``best`` (one slot per body) must hold -1 and is left so; ``scratch`` holds ``n``.
+    left out. The candidates come from the grid cells the disc touches, in bucket order;
+    the result is nevertheless the one a scan of every node in ascending order gives: of
+    equally near nodes the lower row wins, and the bodies come in the order of their
+    first node in reach (``scratch`` keeps it per body found; an insertion sort of the
+    few bodies found replaces sorting every candidate, which cost half the query).
+    ``best`` (one slot per body) must hold -1 and is left so; ``scratch`` holds as many
+    as ``out``.
     """
     mask = len(start) - 2
     lo_x, hi_x = int(math.floor((x - cutoff) / cell)), int(math.floor((x + cutoff) / cell))
     lo_z, hi_z = int(math.floor((z - cutoff) / cell)), int(math.floor((z + cutoff) / cell))
-    m = 0
-    if (hi_x - lo_x + 1) * (hi_z - lo_z + 1) > MAX_CELLS or not (math.isfinite(x) and math.isfinite(z)):
-        for i in range(n):
-            scratch[i] = i
-        m = n
-    else:
-        buckets = np.empty(MAX_CELLS, dtype=np.int64)
+    full = (hi_x - lo_x + 1) * (hi_z - lo_z + 1) > MAX_CELLS or not (math.isfinite(x) and math.isfinite(z))
+    buckets = np.empty(MAX_CELLS, dtype=np.int64)
+    nb = 1  # a full scan: one run of every row
+    if not full:
         nb = 0
         for ix in range(lo_x, hi_x + 1):
             for iz in range(lo_z, hi_z + 1):
@@ -185,37 +199,51 @@ def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, ste
                 for k in range(nb):  # two cells can share a bucket: take its nodes once
                     if buckets[k] == h:
                         seen = True
-                if seen:
-                    continue
-                buckets[nb] = h
-                nb += 1
-                for e in range(start[h], start[h + 1]):
-                    scratch[m] = entries[e]
-                    m += 1
-        scratch[:m].sort()
+                if not seen:
+                    buckets[nb] = h
+                    nb += 1
     reach = cutoff**2
     count = 0
-    for c in range(m):
-        i = scratch[c]
-        d2 = (pos[i, 0] - x) ** 2 + (pos[i, 2] - z) ** 2
-        if not d2 < reach:
-            continue
-        b = body[i]
-        if blocked[b] or pos[i, 1] <= step_over:
-            continue
-        skipped = False
-        for k in range(len(skip)):
-            if skip[k] == b:
-                skipped = True
-        if skipped:
-            continue
-        j = best[b]
-        if j < 0:
-            best[b] = i
-            out[count] = b
-            count += 1
-        elif d2 < (pos[j, 0] - x) ** 2 + (pos[j, 2] - z) ** 2:
-            best[b] = i
+    for kb in range(nb):
+        lo, hi = (0, n) if full else (start[buckets[kb]], start[buckets[kb] + 1])
+        for e in range(lo, hi):
+            i = e if full else entries[e]
+            d2 = (pos[i, 0] - x) ** 2 + (pos[i, 2] - z) ** 2
+            if not d2 < reach:
+                continue
+            b = body[i]
+            if blocked[b] or pos[i, 1] <= step_over:
+                continue
+            skipped = False
+            for k in range(len(skip)):
+                if skip[k] == b:
+                    skipped = True
+            if skipped:
+                continue
+            j = best[b]
+            if j < 0:
+                best[b] = i
+                out[count] = b
+                scratch[count] = i
+                count += 1
+                continue
+            dj = (pos[j, 0] - x) ** 2 + (pos[j, 2] - z) ** 2
+            if d2 < dj or (d2 == dj and i < j):
+                best[b] = i
+            for k in range(count):  # the body's first node in reach: its lowest row
+                if out[k] == b:
+                    if i < scratch[k]:
+                        scratch[k] = i
+                    break
+    for k in range(1, count):  # bodies by their first node in reach (the scan's order)
+        key, b = scratch[k], out[k]
+        m = k - 1
+        while m >= 0 and scratch[m] > key:
+            scratch[m + 1] = scratch[m]
+            out[m + 1] = out[m]
+            m -= 1
+        scratch[m + 1] = key
+        out[m + 1] = b
     for k in range(count):  # bodies to their nearest nodes; the slots back to -1
         b = out[k]
         out[k] = best[b]
@@ -301,27 +329,29 @@ WALKING, ARRIVED, STUCK, SAT, CHECK = 0, 1, 2, 3, 4
 
 @njit(cache=True)
 def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, crows, pelvis, me, target,
-                point, stop, direction, curl, max_speed, mode, best, best_at, now, dt, params,
+                point, stop, direction, curl, max_speed, mode, best, best_at, squeeze_until, now, dt, params,
                 cx, cz, spread, wide, blocked, wall_body, wall_start, wall_links, link_a, link_b,
                 grab_holder, grab_held, slot, scratch, found, obstacles, skip, walk, status, distance,
-                improved):  # fmt: skip
+                improved, mutual):  # fmt: skip
     """Steer every row of a batch of approach goals at once: :func:`steer_to` over arrays.
 
     Row k is the character whose table row is ``crows[k]`` (pelvis node ``pelvis[k]``,
     body ``me[k]``), heading for ``target[k]`` = (kind, pelvis node, first node, node
     count, body): kind 0 a point (``point[k]``), 1 a body's centre of mass, 2 a
     character's pelvis. ``params`` = (speed, repulsion, cutoff, min_sq, fade, step_over,
-    stall time, arrival slack, grid cell). ``best``/``best_at`` (by character row) are
-    the stall clock, updated here (``improved[k]`` says so). Writes the walk vector into
-    ``walk`` (the character table's) and ``status[k]``: WALKING, ARRIVED or STUCK
-    (stopped: the goal ends), SAT (walking; it must stand up) or CHECK (a walk vector the
-    character cannot do: left for the Python path to refuse). ``distance[k]``: to the
+    stall time, arrival slack, grid cell, squeeze after, squeeze, squeeze hold). ``best``/``best_at``
+    (by character row) are the stall clock and ``squeeze_until`` the end of a squeeze, updated
+    here (``improved[k]`` says so); only rows flagged ``mutual`` (two approaching each other)
+    squeeze. Writes the walk vector into ``walk`` (the character table's) and ``status[k]``:
+    WALKING, ARRIVED or STUCK (stopped: the goal ends), SAT (walking; it must stand up) or
+    CHECK (a walk vector the character cannot do: left for the Python path to refuse). ``distance[k]``: to the
     target on the ground. Obstacles are found as :func:`obstacles_near` finds them, in
     the same order: walls, wide bodies (``wide``: their rows), then the nearest node of
     every other body.
     """
     speed, repulsion, cutoff, min_sq, fade = params[0], params[1], params[2], params[3], params[4]
     step_over, stall, slack, cell = params[5], params[6], params[7], params[8]
+    squeeze_after, squeeze, squeeze_hold = params[9], params[10], params[11]
     n_grabs = len(grab_holder)
     for k in range(len(crows)):
         c = crows[k]
@@ -377,6 +407,11 @@ def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, c
             walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
             status[k] = STUCK
             continue
+        if mutual[k] and now - best_at[c] > squeeze_after:
+            squeeze_until[c] = now + squeeze_hold
+            improved[k] = 1
+        squeezing = mutual[k] != 0 and now < squeeze_until[c]
+        push = repulsion * squeeze if squeezing else repulsion
         # what is no obstacle: itself, the target, what it holds, and what those hold
         skip[0] = me[k]
         n_skip = 1
@@ -443,9 +478,9 @@ def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, c
             i = found[e]
             obstacles[n_obs, 0], obstacles[n_obs, 1], obstacles[n_obs, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
             n_obs += 1
-        gx, gz = approach_field(hx, hz, ax, az, obstacles, n_obs, speed, repulsion, cutoff, min_sq,
+        gx, gz = approach_field(hx, hz, ax, az, obstacles, n_obs, speed, push, cutoff, min_sq,
                                 curl[k] != 0, fade)  # fmt: skip
-        if kind != 0:  # pursuit: match a moving target's pace on top of closing in
+        if kind != 0 and not squeezing:  # pursuit: match a moving target's pace on top of closing in
             gx += vx
             gz += vz
             pace = math.sqrt(gx * gx + gz * gz)
@@ -473,10 +508,12 @@ def _wall_table(walls: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,
-             exclude: tuple[str, ...] = (), speed: float | None = None) -> bool:  # fmt: skip
+             exclude: tuple[str, ...] = (), speed: float | None = None,
+             squeeze: bool = False) -> bool:  # fmt: skip
     """Walk towards ``target`` until within ``stop_distance``; True once there.
 
-    ``speed`` (m/s) overrides the steering's usual walking pace.
+    ``speed`` (m/s) overrides the steering's usual walking pace. ``squeeze``: after
+    ``SQUEEZE_AFTER`` s without headway, squeeze past obstacles (see ``SQUEEZE``).
 
     Fails the goal when it stalls. ``direction`` (a ground vector) makes it arrive from
     that side of the target; by default it comes from where it is.
@@ -503,11 +540,18 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         return False
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
     params = SteeringParams(curl=curl) if speed is None else SteeringParams(curl=curl, speed=speed)
+    if squeeze and scene.time - memory["best_at"] > SQUEEZE_AFTER:
+        memory["squeeze_until"] = scene.time + SQUEEZE_HOLD
+    squeezing = squeeze and scene.time < memory.get("squeeze_until", -np.inf)
+    if squeezing:  # no headway for a while: squeeze through
+        params = dataclasses.replace(params, repulsion=params.repulsion * SQUEEZE)
     obstacles = obstacles_near(character, ignore, params.cutoff, here)
     walk = approach_velocity(here, aim, obstacles, params)
-    if isinstance(target, str):
+    if isinstance(target, str) and not squeezing:
         # pursuit: match a moving target's pace on top of closing in, or one that walks
-        # away is never caught (the field slows down over the last metre)
+        # away is never caught (the field slows down over the last metre); not while
+        # squeezing: two that approach each other would copy each other's dithering and
+        # drift off together
         walk = walk + scene.entity(target).velocity * np.array([1.0, 0.0, 1.0])
         pace = float(np.linalg.norm(walk))
         if pace > params.speed:
@@ -519,7 +563,7 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
 #: :func:`steer_goals`'s ``params``: the approach field's gains and the thresholds above.
 _GOAL_PARAMS = np.array([SteeringParams().speed, SteeringParams().repulsion, SteeringParams().cutoff,
                          SteeringParams().min_sq, SteeringParams().fade, STEP_OVER, STALL_TIME, ARRIVE_SLACK,
-                         STEER_CELL])  # fmt: skip
+                         STEER_CELL, SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD])  # fmt: skip
 
 
 @dataclass
@@ -534,6 +578,7 @@ class _Batch:
     arrays: dict = field(default_factory=dict)
     best: np.ndarray = field(default_factory=lambda: np.full(0, np.inf))
     best_at: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    squeeze_until: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 @register
@@ -629,6 +674,7 @@ class Approach(Behavior):
             grow = n_chars - len(packed.best)
             packed.best = np.concatenate([packed.best, np.full(grow, np.inf)])
             packed.best_at = np.concatenate([packed.best_at, np.zeros(grow)])
+            packed.squeeze_until = np.concatenate([packed.squeeze_until, np.full(grow, -np.inf)])
         packed.rows, packed.fallback = [], []
         setups = []
         for row, entity, goal in zip(rows, entities, goals, strict=True):
@@ -644,6 +690,7 @@ class Approach(Behavior):
                 # the stall clock lives in the goal's memory (snapshots keep it); a copy by row here
                 packed.best[row] = goal.memory.get("best", np.inf)
                 packed.best_at[row] = goal.memory.get("best_at", scene.time)
+                packed.squeeze_until[row] = goal.memory.get("squeeze_until", -np.inf)
             packed.rows.append((row, entity, goal))
             setups.append(setup)
         n = len(setups)
@@ -676,6 +723,10 @@ class Approach(Behavior):
         a["grab_held"] = np.array([esper.component_for_entity(held, Body).index for _, held in holds
                                    if esper.has_component(held, Body)], dtype=np.int64)  # fmt: skip
         a["skip"] = np.empty(2 + 2 * len(holder), dtype=np.int64)
+        # two characters approaching each other: each copies the other's dithering (pursuit),
+        # the case that squeezes (see SQUEEZE)
+        aims = {s[1]: s[2][4] for s in setups if s[2][0] == 2}
+        a["mutual"] = np.array([s[2][0] == 2 and aims.get(s[2][4]) == s[1] for s in setups], dtype=np.uint8)
         for name, dtype in (("status", np.int64), ("distance", np.float64), ("improved", np.uint8)):
             a[name] = np.empty(n, dtype=dtype)
         packed.key = key
@@ -720,15 +771,18 @@ class Approach(Behavior):
             obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
             steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, entries,
                         a["crows"], a["pelvis"], a["me"], a["target"], a["point"], a["stop"], a["direction"],
-                        a["curl"], a["max_speed"], ch.mode, packed.best, packed.best_at, scene.time, scene.dt,
+                        a["curl"], a["max_speed"], ch.mode, packed.best, packed.best_at,
+                        packed.squeeze_until, scene.time, scene.dt,
                         _GOAL_PARAMS,
                         cx, cz, spread, np.flatnonzero(wide), blocked, wall_body, wall_start, wall_links,
                         links.a, links.b,
                         a["grab_holder"], a["grab_held"], slot, scratch, found, obstacles, a["skip"], ch.walk,
-                        a["status"], a["distance"], a["improved"])  # fmt: skip
+                        a["status"], a["distance"], a["improved"], a["mutual"])  # fmt: skip
             for k in np.flatnonzero(a["improved"]):
                 row, _, goal = packed.rows[k]
                 goal.memory.update(best=float(packed.best[row]), best_at=float(packed.best_at[row]))
+                if packed.squeeze_until[row] > -np.inf:
+                    goal.memory["squeeze_until"] = float(packed.squeeze_until[row])
             for k in np.flatnonzero(a["status"] != WALKING):
                 row, entity, goal = packed.rows[k]
                 character = scene.character_handle(entity)

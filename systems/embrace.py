@@ -17,6 +17,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
 from twig_ecs.components import HandAims
+from twig_ecs.steering import length
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -45,11 +46,11 @@ def glide(character, hand: str, point: np.ndarray, step: float) -> None:
     if aim is None:
         aim = character.node(("l_hand", "r_hand")[hand == "right"])
     move = point - aim
-    far = float(np.linalg.norm(move))
+    far = length(move)
     if far > step:
         move *= step / far
     aims.points[hand] = aim = aim + move
-    character.reach(tuple(aim), hand=hand)
+    character.reach(aim, hand=hand)  # (a fresh float array: no conversion from a tuple)
 
 
 def lower_hands(character) -> None:
@@ -107,7 +108,7 @@ class Embrace(Behavior):
         other = self.scene.character_handle(hugger)
         character.look_at(other.name, node="head")
         to = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
-        to /= max(float(np.linalg.norm(to)), 1e-9)
+        to /= max(length(to), 1e-9)
         if phase not in ("wrap", "hold"):
             # turn the whole body to it: a few slow steps on the spot, facing it
             off = float(np.arccos(np.clip(character.facing @ to, -1.0, 1.0)))
@@ -123,7 +124,7 @@ class Embrace(Behavior):
         else:
             centre = other.node(back_node)
         through = (centre - character.node("spine")) * np.array([1.0, 0.0, 1.0])
-        through /= max(float(np.linalg.norm(through)), 1e-9)
+        through /= max(length(through), 1e-9)
         left = np.array([through[2], 0.0, -through[0]])
         back = centre + through * BACK * other.scale
         small = back_node == "neck"

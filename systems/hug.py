@@ -18,10 +18,11 @@ round by then is a hug (a short arm round a broad body).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.goals import GoalSchema, Param, seconds
-from twig_ecs.steering import ground_distance
+from twig_ecs.steering import ground_distance, length
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
 from twig_ecs.systems.collide import closest_segment_params
@@ -96,8 +97,9 @@ class Hug(Behavior):
             character.stop()
         if phase == "hold" and other.scale > BIG * scale:
             character.lean(toward * LEAN_IN * scale)  # into a grown-up's legs: they hold firm
-        for hand, point in back_points(character, other).items():
-            glide(character, hand, round_the_side(character, other, hand, point), HAND_SPEED * dt)
+        level = level_of(character, other)  # (once: the hands' points are read off the same nodes)
+        for hand, point in back_points(character, other, level).items():
+            glide(character, hand, round_the_side(character, other, hand, point, level), HAND_SPEED * dt)
         if phase == "wrap":
             on = hands_on_back(character, other)
             if on == 2:
@@ -130,19 +132,19 @@ def level_of(character, other) -> str:
     return min(("neck", "spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
 
 
-def back_points(character, other) -> dict[str, np.ndarray]:
+def back_points(character, other, level: str | None = None) -> dict[str, np.ndarray]:
     """Where each of ``character``'s hands goes on ``other``'s back: round the torso at
     :func:`level_of`, as far past each side towards the spine as the arms reach
     (``ROUNDS``), a little more than a forearm's thickness off its surface (its widest capsule there); no
-    higher than the hugger's shoulders."""
-    level = level_of(character, other)
+    higher than the hugger's shoulders. ``level``: :func:`level_of` when the caller has it."""
+    level = level or level_of(character, other)
     centre = other.node(level)
     through = _unit(centre - character.node("spine"))
     left = np.array([through[2], 0.0, -through[0]])  # the hugger's left
     clear = CLEAR * FOREARM * character.scale
     radius = _surface(other, level) + clear
     if level == "pelvis":  # the hips stick out sideways beyond the spine's capsule
-        half = 0.5 * float(np.linalg.norm(other.node("l_hip") - other.node("r_hip")))
+        half = 0.5 * length(other.node("l_hip") - other.node("r_hip"))
         radius = max(radius, half + 0.08 * other.scale + clear)
     y = min(float(centre[1]), float(character.node("neck")[1]))
     arm = ARM * character.scale
@@ -152,11 +154,11 @@ def back_points(character, other) -> dict[str, np.ndarray]:
     # sides, from square shoulders: a hand that got further would pull its shoulder
     # forward and twist the hugger, so the other could get less far still
     neck = character.node("neck")
-    half = 0.5 * float(np.linalg.norm(character.node("l_shoulder") - character.node("r_shoulder")))
+    half = 0.5 * length(character.node("l_shoulder") - character.node("r_shoulder"))
     for angle in ROUNDS:
         point = centre + radius * (np.cos(angle) * left + np.sin(angle) * through)
         point[1] = y
-        if float(np.linalg.norm(point - (neck + half * left))) <= REACHABLE * arm:
+        if length(point - (neck + half * left)) <= REACHABLE * arm:
             break
     for hand, side in (("left", 1.0), ("right", -1.0)):
         point = centre + radius * (np.cos(angle) * left * side + np.sin(angle) * through)
@@ -165,19 +167,19 @@ def back_points(character, other) -> dict[str, np.ndarray]:
     return out
 
 
-def round_the_side(character, other, hand: str, point: np.ndarray) -> np.ndarray:
+def round_the_side(character, other, hand: str, point: np.ndarray, level: str | None = None) -> np.ndarray:
     """Where ``hand`` heads for on its way to ``point`` on ``other``'s back: while it is
     still in front of ``other``'s torso (seen from ``character``), a point out beside the
     torso on the hand's side, a little past its widest (``PAST``), at ``point``'s height:
-    an arm goes round a body, not into it."""
+    an arm goes round a body, not into it. ``level``: :func:`level_of` when the caller has it."""
     palm = character.node(("l_hand", "r_hand")[hand == "right"])
-    centre = other.node(level_of(character, other))
+    centre = other.node(level or level_of(character, other))
     through = _unit(centre - character.node("spine"))
     if float((palm - centre) @ through) >= 0.0:
         return point
     left = np.array([through[2], 0.0, -through[0]])
     side = 1.0 if hand == "left" else -1.0
-    out = float(np.linalg.norm((point - centre) * np.array([1.0, 0.0, 1.0])))
+    out = length((point - centre) * np.array([1.0, 0.0, 1.0]))
     beside = centre + 1.15 * out * (np.cos(PAST) * left * side + np.sin(PAST) * through)
     beside[1] = point[1]
     return beside
@@ -190,11 +192,11 @@ def hands_on_back(holder, held) -> int:
     count = 0
     for hand in ("l_hand", "r_hand"):
         palm = holder.node(hand)
-        node = min(("pelvis", "spine", "neck"), key=lambda n: float(np.linalg.norm(palm - held.node(n))))
+        node = min(("pelvis", "spine", "neck"), key=lambda n: length(palm - held.node(n)))
         centre = held.node(node)
         through = _unit(centre - holder.node("spine"))
         off = palm - centre
-        if float(np.linalg.norm(off)) <= ON_BACK and float(off @ through) > 0.0:
+        if length(off) <= ON_BACK and float(off @ through) > 0.0:
             count += 1
     return count
 
@@ -204,32 +206,55 @@ def torso_gap(character, other) -> float:
     the nearest collidable capsule of ``other``'s body, its arms left out (a partner's arm
     coming round to hold it is no wall to stop at)."""
     links, pos = other.scene.state.links, other.scene.state.nodes.pos
-    n = links.count
     mine = [(character.node(a), character.node(b), r * character.scale)
             for a, b, r in (("pelvis", "spine", 0.12), ("spine", "neck", 0.13))]  # fmt: skip
-    theirs = np.flatnonzero((links.body[:n] == other.body.index) & ((links.flags[:n] & LINK_COLLIDE) != 0))
-    names = other.node_names
-    arm = {other.body.node_start + names.index(a) for a in ARM_NODES if a in names}
+    body = other.body
+    # its own link rows (contiguous), not a pass over every link in the store
+    first, last = body.link_start, body.link_start + body.link_count
+    theirs = first + np.flatnonzero((links.body[first:last] == body.index)
+                                    & ((links.flags[first:last] & LINK_COLLIDE) != 0))  # fmt: skip
+    names = body.node_names
+    arm = {body.node_start + names.index(a) for a in ARM_NODES if a in names}
     theirs = [j for j in theirs if int(links.a[j]) not in arm and int(links.b[j]) not in arm]
+    rows = np.array(theirs, dtype=np.int64)
+    offsets = np.empty((2 * len(rows), 3))
+    torso_offsets(pos, links.a, links.b, rows, np.array([(a, b) for a, b, _ in mine]), offsets)
     best = np.inf
-    for j in theirs:
-        c, d, rj = pos[links.a[j]], pos[links.b[j]], float(links.radius[j])
-        for a, b, ri in mine:
-            s, t = closest_segment_params(a, b, c, d)
-            best = min(best, float(np.linalg.norm(a + s * (b - a) - (c + t * (d - c)))) - ri - rj)
+    for k, j in enumerate(theirs):
+        rj = float(links.radius[j])
+        for i, (_, _, ri) in enumerate(mine):
+            best = min(best, length(offsets[2 * k + i]) - ri - rj)
     return best
+
+
+@njit(cache=True)
+def torso_offsets(pos, link_a, link_b, rows, mine, out):
+    """For each link row ``rows[k]`` and torso segment ``mine[i]`` (its two ends): the vector
+    between their closest points, into ``out[2 k + i]`` - the arithmetic of the per-pair
+    numpy it replaces, term by term, in one call instead of one per pair."""
+    for k in range(len(rows)):
+        j = rows[k]
+        c, d = pos[link_a[j]], pos[link_b[j]]
+        for i in range(2):
+            a, b = mine[i, 0], mine[i, 1]
+            s, t = closest_segment_params(a, b, c, d)
+            for q in range(3):
+                out[2 * k + i, q] = (a[q] + s * (b[q] - a[q])) - (c[q] + t * (d[q] - c[q]))
 
 
 def _surface(other, node: str) -> float:
     """The radius of the thickest capsule at ``other``'s ``node`` (m)."""
     links = other.scene.state.links
-    collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
     at = other._row(node)
-    body = collide & ((links.a[: links.count] == at) | (links.b[: links.count] == at))
-    return float(links.radius[: links.count][body].max()) if body.any() else 0.0
+    # a node's links are its body's (contiguous rows): no pass over every link in the store
+    b = other.body
+    rows = slice(b.link_start, b.link_start + b.link_count)
+    collide = (links.flags[rows] & LINK_COLLIDE) != 0
+    body = collide & ((links.a[rows] == at) | (links.b[rows] == at))
+    return float(links.radius[rows][body].max()) if body.any() else 0.0
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
     v = v * np.array([1.0, 0.0, 1.0])
-    n = float(np.linalg.norm(v))
+    n = length(v)
     return v / n if n > 1e-9 else v

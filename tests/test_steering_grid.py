@@ -12,7 +12,13 @@ import pytest
 
 from twig_ecs import Scene
 from twig_ecs.bench import cases
-from twig_ecs.systems.approach import STEP_OVER, obstacles_near
+from twig_ecs.systems.approach import (
+    STEER_CELL,
+    STEP_OVER,
+    ground_grid,
+    nearest_obstacle_nodes,
+    obstacles_near,
+)
 
 
 def brute_force_obstacles(character, cutoff: float) -> np.ndarray:
@@ -64,6 +70,34 @@ def test_grid_finds_the_same_obstacles_as_scanning_every_node(seed):
         assert found > 100  # the crowd is dense enough that the comparison means something
 
 
+def test_equally_near_nodes_and_body_order_come_out_as_a_scan_of_every_node_gives_them():
+    """Exact ties across cells (visited in bucket order, not row order): of two equally near
+    nodes of a body the lower row wins, and bodies come in the order of their first node in
+    reach - what the scan gives, so the field sums the same floats in the same order."""
+    # round (x, z) on a 2 m grid round the origin: four cells, squared distances tied exactly
+    ring = [(x, z) for x in (-1.0, -0.5, 0.5, 1.0) for z in (-1.0, -0.5, 0.5, 1.0)]
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        order = rng.permutation(len(ring))  # which body owns which point, and in what row order
+        pos = np.array([(ring[k][0], 1.0, ring[k][1]) for k in order])
+        body = np.sort(rng.integers(0, 5, len(pos)))  # bodies own contiguous rows
+        n = len(pos)
+        start, entries = np.empty(64 + 1, dtype=np.int64), np.empty(n, dtype=np.int64)
+        ground_grid(pos, n, STEER_CELL, start, entries)
+        best, scratch, out = np.full(5, -1), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        blocked, skip = np.zeros(5, dtype=np.uint8), np.array([-1], dtype=np.int64)
+        for cutoff in (1.0, 1.2, 1.8):
+            count = nearest_obstacle_nodes(pos, body, n, start, entries, STEER_CELL, 0.0, 0.0, cutoff,
+                                           STEP_OVER, blocked, skip, best, scratch, out)  # fmt: skip
+            d2 = pos[:, 0] ** 2 + pos[:, 2] ** 2
+            scan: dict[int, int] = {}
+            for i in range(n):  # ascending rows, strictly nearer replaces: the scan's rule
+                if d2[i] < cutoff**2 and (body[i] not in scan or d2[i] < d2[scan[body[i]]]):
+                    scan[body[i]] = i
+            assert out[:count].tolist() == list(scan.values()), (trial, cutoff)
+            assert (best == -1).all()
+
+
 def test_excluded_bodies_are_no_obstacles():
     """A body named in ``exclude`` (the target) is left out; everyone else in reach stays."""
     with random_crowd(3, count=12, side=3.0) as scene:
@@ -93,17 +127,13 @@ def test_a_hundred_approachers_all_arrive():
         goals = [g for a, b in pairs for g in (a.approach(b.name), b.approach(a.name))]
         assert len(goals) == 100
         scene.run(12.0)
-        # KNOWN (issue 14's human walk, reported to #19): one pair (9), pushed a row down by
-        # its neighbours, ends 2.1 m apart either side of pair 8, which stands where it met:
-        # a dip in the approach field where each one's walk vector swings round every 0.3 s;
-        # the old scurry's overshoot got them out, the human walk dithers and the goals fail
-        # 'stuck'. Every other goal succeeds.
-        failed = [g for g in goals if g.status == "failed"]
-        assert len(failed) <= 2 and all(g.reason.startswith("stuck") for g in failed)
-        assert scene.event_counts["goal.done"] >= 98
-        for p, (a, b) in enumerate(pairs):
-            if goals[2 * p].status == "failed" or goals[2 * p + 1].status == "failed":
-                continue
+        # pair 9, pushed a row down by its neighbours, meets pair 8 standing where it met and
+        # pair 7 below: a dip in the field before the gap between them, where both walk
+        # vectors swing to and fro; after 2 s without headway they squeeze through (obstacles
+        # push less, no pursuit of each other's dithering) instead of failing 'stuck'
+        assert [g.status for g in goals].count("done") == 100, [(g.status, g.reason) for g in goals
+                                                                 if g.status != "done"]  # fmt: skip
+        for a, b in pairs:
             gap = np.hypot(*(a.position - b.position)[[0, 2]])
             assert 0.3 < gap < 0.6 + 0.3, (a.name, gap)  # met at about the stop distance, not through
 

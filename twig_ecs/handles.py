@@ -51,7 +51,12 @@ class BodyHandle:
     def body(self) -> Body:
         """The Body component (template name, rows)."""
         self.scene.activate()
-        return esper.component_for_entity(self.entity, Body)
+        # looked up once per handle (behaviours read nodes by name many times a step); the
+        # component is updated in place when rows move, and a removed entity stays an error
+        found = self.__dict__.get("_body")
+        if found is None or not esper.entity_exists(self.entity):
+            found = self.__dict__["_body"] = esper.component_for_entity(self.entity, Body)
+        return found
 
     @property
     def template(self) -> str:

@@ -43,6 +43,13 @@ def approach_velocity(position: np.ndarray, goal: np.ndarray, obstacles: np.ndar
     return np.array([wx, 0.0, wz])
 
 
+def length(v: np.ndarray) -> float:
+    """The length of a vector (a 1-d float array): ``np.linalg.norm``'s arithmetic (the root of
+    ``v.dot(v)``, to the last bit) without its checks, which cost ten times the sum on three
+    numbers in a behaviour's per-step Python."""
+    return math.sqrt(v.dot(v))
+
+
 def ground_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Distance between two points on the ground plane."""
     return math.hypot(a[0] - b[0], a[2] - b[2])
