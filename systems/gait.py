@@ -53,16 +53,14 @@ from twig_ecs.system import System
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
 LIFT = 0.14  # of the leg's length: the top of a foot's arc above the ground
-LEAD = 0.5  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps;
-# half a step: the hip need not sink below the stance leg's arc for the foot to land, which bent that knee)
+LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
 MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
 SKIP = 0.08  # of the leg's length: a walking step this short is not worth taking
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
 STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
-WALK_HEIGHT = 0.985  # of a planted leg's length: how far its hip rides from its foot at a walk (a stance
-# knee bent ~20 degrees; 0.975 with LEAD 0.6 gave a median 34 at 1.2 m/s, a person's 5-20)
+WALK_HEIGHT = 0.975  # of a planted leg's length: how far its hip rides from its foot at a walk
 GUIDE_REACH = 0.99  # of the leg's length: a swinging foot stays (and lands) this near its hip
 GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (only kept in reach)
 HURRY = 0.99  # of the leg's length: a planted leg this straight (its foot behind or to the side)
@@ -75,8 +73,7 @@ HURRY_TIME = 0.1  # s: how soon a hurried swing lands
 KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
-LOW_SUPPORT = 0.1  # of the leg's length: the highest support a foot plants on (a foot that came down on
-# a merry-go-round's deck bar, a doll or someone's foot is not nailed there: it steps down again)
+LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
 ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
