@@ -221,6 +221,18 @@ def control_posture(args, n_chars, gravity, dt):
         ax = clamp(ax, -MAX_ACC, MAX_ACC)
         ay = clamp(ay, -MAX_ACC, MAX_ACC)
         az = clamp(az, -MAX_ACC, MAX_ACC)
+        # a torso already bent further than the upright control leans it (the hips held
+        # back: legs caught on a bar, in a crush) is not pushed on further the way it
+        # leans: pushing the chest after the walk folds the body over the held hips
+        n = nd[NECK]
+        bx = pos[n, 0] - pos[p, 0]
+        bz = pos[n, 2] - pos[p, 2]
+        bent = math.sqrt(bx * bx + bz * bz)
+        if bent > math.sin(MAX_PITCH) * math.sqrt(bent * bent + (pos[n, 1] - pos[p, 1]) ** 2):
+            along = (ax * bx + az * bz) / bent
+            if along > 0.0:
+                ax -= along * bx / bent
+                az -= along * bz / bent
         for role in TORSO:
             i = nd[role]
             acc[i, 0] += ax

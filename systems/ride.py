@@ -26,8 +26,10 @@ WANT = 0.65  # activation while it wants a spin: above play
 GIVE_UP = 12.0  # s to get there
 TAKE_TIME = 2.5  # s to get a hand on the bar once there
 RUN = 2.4  # m/s (at 1.75 m tall) running round alongside
+STOOPED = 0.8  # m/s (at 1.75 m tall) walking round alongside, stooped to the deck's rim
 OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands and runs
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
+LET_GO = 28.0  # degrees: a torso pulled this far from upright by the bar lets go of it
 
 
 @register
@@ -82,6 +84,11 @@ class Ride(Behavior):
                 )
             return
         bar = ride.node(spin.bar)
+        if _torso_pitch(character) > LET_GO:
+            # the bar pulls it over (a low rim it must squat to, a deck turning faster than
+            # it can follow): it lets go rather than be dragged down
+            self._done(character)
+            return
         if spin.phase == "take":
             # step in until the bar is within an arm's length of the shoulders
             shoulders = character.node("neck")
@@ -109,10 +116,15 @@ class Ride(Behavior):
         # circle just outside it
         out = _flat_unit(character.position - centre)
         tangent = np.cross([0.0, 1.0, 0.0], out)
-        if float(tangent @ _flat_unit(bar - character.position)) < 0.0:
-            tangent = -tangent  # go the way the held bar is (ahead of the child)
+        if float(tangent @ character.facing) < 0.0:
+            # the way it faces: the held bar is at its side, so the side it lies on flips
+            # from frame to frame (a child turned back and forth on the spot, and fell)
+            tangent = -tangent
+        character.stoop(tuple(bar))  # the bar goes round with it: lean to where it is now
         off = ground_distance(character.position, centre) - (rim + OUTSIDE * scale)
-        walk = tangent * RUN * scale - out * 1.5 * off
+        # stooped to the deck's rim it pushes at a walk: nobody runs in a squat
+        pace = (RUN if spin.bar.startswith("handle") else STOOPED) * scale
+        walk = tangent * pace - out * 1.5 * off
         speed = float(np.linalg.norm(walk))
         limit = character.character.max_speed
         character.walk(walk * min(1.0, limit / max(speed, 1e-9)))
@@ -150,6 +162,12 @@ class Ride(Behavior):
             spin.phase = "go"
         character.stop()
         character.pose("hang")
+
+
+def _torso_pitch(character) -> float:
+    """The pelvis-to-neck line's angle from the vertical (degrees)."""
+    up = character.node("neck") - character.node("pelvis")
+    return float(np.degrees(np.arctan2(np.hypot(up[0], up[2]), up[1])))
 
 
 def _flat_unit(v: np.ndarray) -> np.ndarray:

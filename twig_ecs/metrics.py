@@ -3,7 +3,8 @@
 :class:`StoryRecorder` watches a scene step by step: time per winning behaviour, hugs,
 ball touches, look-backs, fights, withdrawals, distance from the caregiver, what each
 hand holds, the peak angular speed of anything that turns on an axle, and the contact
-figures of :mod:`twig_ecs.interactions` (kicks, pushes, hugs, carried things). It can also
+figures of :mod:`twig_ecs.interactions` (kicks, pushes, hugs, carried things) and the
+torso figures of :mod:`twig_ecs.torso` (no fold beyond 35 degrees but right after a blow). It can also
 write a per-step CSV trace and draw distance and anxiety over time with behaviour bands.
 """
 
@@ -21,6 +22,7 @@ from twig_ecs.components import Attachment, Character, Feisty, Memory, Playful, 
 from twig_ecs.interactions import InteractionRecorder
 from twig_ecs.scene import Scene
 from twig_ecs.steering import ground_distance
+from twig_ecs.torso import TorsoRecorder
 
 TRACE_FIELDS = ("time", "character", "x", "z", "behaviour", "focus", "anxiety", "caregiver_distance", "pain")
 
@@ -46,6 +48,7 @@ class StoryRecorder:
         scene.on("behavior.changed", self._changed)
         self.axles = [name for name in scene.entity_names if self._is_axled(name)]
         self.interactions = InteractionRecorder(scene)
+        self.torso = TorsoRecorder(scene)
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
@@ -88,6 +91,7 @@ class StoryRecorder:
         for name in self.axles:
             self.peak_spin = max(self.peak_spin, self._spin(name))
         self.interactions.step()
+        self.torso.step()
 
     def _spin(self, name: str) -> float:
         """Angular speed (rad/s) of an axled body about its axle, from one free node."""
@@ -134,6 +138,7 @@ class StoryRecorder:
             "characters": characters,
             "merry_go_round_peak_rad_s": round(self.peak_spin, 3),
             "interactions": self.interactions.report(),
+            "torso": self.torso.report(),
         }
 
     def write_trace(self, path: str | Path) -> None:
