@@ -187,7 +187,7 @@ class Play(Behavior):
         params = SteeringParams(speed=playful.speed if far > 1.0 else min(playful.speed, SLOW))
         obstacles = obstacles_near(character, exclude, params.cutoff)
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
-            walk = approach_velocity(here, spot, obstacles, params)
+            walk = approach_velocity(here, self._round_the_decks(here, spot, scale), obstacles, params)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP:
                 walk *= CREEP / pace
@@ -212,6 +212,28 @@ class Play(Behavior):
                 aim = _flat_unit(ball - spot)
                 left = np.array([aim[2], 0.0, -aim[0]])
         return spot, aim, left
+
+    def _round_the_decks(self, here: np.ndarray, spot: np.ndarray, scale: float) -> np.ndarray:
+        """Where to head for ``spot``: straight there, unless the way crosses a turning deck
+        (the field's push off its rim is soft, and legs in its bars spin it): then out off the
+        deck, or to the point beside it on the near side, past its rim."""
+        for centre, radius in self.decks or ():
+            clear = radius + DECK_CLEAR * scale
+            if deck_clearance([(centre, clear)], here, spot) >= 0.0:
+                continue
+            out = here[[0, 2]] - centre
+            far = float(np.linalg.norm(out))
+            if far < clear:  # on the deck or at its rim: step off it first
+                point = centre + (out / far if far > 1e-9 else np.array([0.0, 1.0])) * (clear + 0.3)
+                return np.array([point[0], here[1], point[1]])
+            way = (spot - here)[[0, 2]]
+            way = way / max(float(np.linalg.norm(way)), 1e-9)
+            across = np.array([-way[1], way[0]])
+            if float(across @ (centre - here[[0, 2]])) > 0.0:
+                across = -across  # the side of the deck that the child is on
+            point = centre + across * (clear + 0.3)
+            return np.array([point[0], here[1], point[1]])
+        return spot
 
     def _kicking_foot(self, character, ball: np.ndarray, aim: np.ndarray, left: np.ndarray) -> str:
         """The foot nearer the line through the toy along the aim."""
