@@ -231,6 +231,10 @@ def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, b
                 j = order[e2]
                 if col_ignore[j, 0] == p or col_ignore[j, 1] == p or not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
+                if col_ignore[j, 0] == -2 - i or col_ignore[j, 1] == -2 - i:
+                    continue  # one capsule of what a hand holds and that arm's (see ignore_collider)
+                if col_ignore[i, 0] == -2 - j or col_ignore[i, 1] == -2 - j:
+                    continue
                 if n_pairs < cap:
                     pairs[n_pairs, 0] = min(i, j)
                     pairs[n_pairs, 1] = max(i, j)

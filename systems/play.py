@@ -33,7 +33,36 @@ SETTLE = 0.25  # s after a kick before lining up again
 ROLLING = 1.5  # m/s: a toy rolling faster than this is chased, not kicked
 ARRIVED = 1.2  # m: a toy this near the place it was sent to gets a new one
 YARD_MARGIN = 2.5  # m inside the fence that a kick aims for
+DECK_MARGIN = 2.0  # m beyond a turning deck's rim that a kick aims for (a ball at rest against it is awkward)
+DECK_PATH = 0.6  # m beyond a deck's rim that a kick's straight path keeps
+DECK_CLEAR = 0.5  # m (at 1.75 m tall) beyond a deck's rim where the kicker stands: its legs clear the rim
+TRIES = 8  # places drawn for the toy before taking the one furthest from the decks
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
+
+
+def decks_of(scene) -> list[tuple[np.ndarray, float]]:
+    """The (x, z) centre and rim radius of every body that turns on a fixed axle (a
+    merry-go-round's deck): its nodes only go round, so the disc stays where it is."""
+    st = scene.state
+    n = st.nodes.count
+    axle, body = st.nodes.axle_a[:n], st.nodes.body[:n]
+    out = []
+    for b in np.unique(body[axle >= 0]):
+        rows = np.flatnonzero((body == b) & (axle >= 0))
+        centre = st.nodes.pos[axle[rows[0]]][[0, 2]].copy()
+        out.append((centre, float(st.nodes.axle_radius[rows].max())))
+    return out
+
+
+def deck_clearance(decks, start: np.ndarray, end: np.ndarray) -> float:
+    """How far (m) the ground segment start-end keeps beyond the rims of ``decks``
+    (negative: it crosses one); inf with no decks."""
+    worst = np.inf
+    a, ab = start[[0, 2]], (end - start)[[0, 2]]
+    for centre, radius in decks:
+        t = float(np.clip((centre - a) @ ab / max(float(ab @ ab), 1e-12), 0.0, 1.0))
+        worst = min(worst, float(np.linalg.norm(a + t * ab - centre)) - radius)
+    return worst
 
 
 def yard_of(scene) -> tuple[np.ndarray, np.ndarray] | None:
@@ -66,6 +95,7 @@ class Play(Behavior):
         """The yard (looked up once: fences do not move). Each child's game is its
         :class:`~twig_ecs.components.Kicking` component."""
         self.yard: tuple[np.ndarray, np.ndarray] | None | bool = False
+        self.decks: list[tuple[np.ndarray, float]] | None = None
 
     def activation(self, character, mind: Mind, goal) -> float:
         """Joy, less the anxiety of an attached child."""
@@ -77,7 +107,23 @@ class Play(Behavior):
         return playful.joy * (1.0 - 0.5 * anxiety)
 
     def _target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
-        """A new place to send the toy: inside the yard, or near where the toy started."""
+        """A new place to send the toy: inside the yard, or near where the toy started;
+        away from any turning deck, and not across one (of a few draws, the clearest)."""
+        if self.decks is None:
+            self.decks = decks_of(self.scene)
+        best, clearest = None, -np.inf
+        for _ in range(TRIES if self.decks else 1):
+            place = self._draw_target(toy_name, toy_at)
+            clear = min(deck_clearance(self.decks, place, place) - DECK_MARGIN,
+                        deck_clearance(self.decks, toy_at, place) - DECK_PATH)  # fmt: skip
+            if clear > clearest:
+                best, clearest = place, clear
+            if clear >= 0.0:
+                break
+        return best
+
+    def _draw_target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
+        """A place drawn at random: inside the yard, or near where the toy started."""
         if self.yard is False:
             self.yard = yard_of(self.scene)
         rng = self.scene.rng
@@ -133,6 +179,7 @@ class Play(Behavior):
                 spot[[0, 2]] = inside
                 aim = _flat_unit(ball - spot)
                 left = np.array([aim[2], 0.0, -aim[0]])
+        spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
         behind = float((here - ball) @ aim) < -0.1 * scale
         exclude = {playful.toy} if behind else set()
@@ -140,13 +187,53 @@ class Play(Behavior):
         params = SteeringParams(speed=playful.speed if far > 1.0 else min(playful.speed, SLOW))
         obstacles = obstacles_near(character, exclude, params.cutoff)
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
-            walk = approach_velocity(here, spot, obstacles, params)
+            walk = approach_velocity(here, self._round_the_decks(here, spot, scale), obstacles, params)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP:
                 walk *= CREEP / pace
             character.walk(walk)
             return
         self._kick(character, foot, ball, aim, game, speed)
+
+    def _off_the_decks(self, spot: np.ndarray, ball: np.ndarray, aim: np.ndarray, left: np.ndarray,
+                       scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+        """A toy by a turning deck: the spot behind it may be on the deck, where the legs
+        catch its bars and kick it round; stand off the rim and kick the toy from there."""
+        if self.decks is None:
+            self.decks = decks_of(self.scene)
+        for centre, radius in self.decks:
+            out = spot[[0, 2]] - centre
+            far = float(np.linalg.norm(out))
+            clear = radius + DECK_CLEAR * scale
+            if far < clear:
+                out = out / far if far > 1e-9 else np.array([0.0, 1.0])
+                spot = spot.copy()
+                spot[[0, 2]] = centre + out * clear
+                aim = _flat_unit(ball - spot)
+                left = np.array([aim[2], 0.0, -aim[0]])
+        return spot, aim, left
+
+    def _round_the_decks(self, here: np.ndarray, spot: np.ndarray, scale: float) -> np.ndarray:
+        """Where to head for ``spot``: straight there, unless the way crosses a turning deck
+        (the field's push off its rim is soft, and legs in its bars spin it): then out off the
+        deck, or to the point beside it on the near side, past its rim."""
+        for centre, radius in self.decks or ():
+            clear = radius + DECK_CLEAR * scale
+            if deck_clearance([(centre, clear)], here, spot) >= 0.0:
+                continue
+            out = here[[0, 2]] - centre
+            far = float(np.linalg.norm(out))
+            if far < clear:  # on the deck or at its rim: step off it first
+                point = centre + (out / far if far > 1e-9 else np.array([0.0, 1.0])) * (clear + 0.3)
+                return np.array([point[0], here[1], point[1]])
+            way = (spot - here)[[0, 2]]
+            way = way / max(float(np.linalg.norm(way)), 1e-9)
+            across = np.array([-way[1], way[0]])
+            if float(across @ (centre - here[[0, 2]])) > 0.0:
+                across = -across  # the side of the deck that the child is on
+            point = centre + across * (clear + 0.3)
+            return np.array([point[0], here[1], point[1]])
+        return spot
 
     def _kicking_foot(self, character, ball: np.ndarray, aim: np.ndarray, left: np.ndarray) -> str:
         """The foot nearer the line through the toy along the aim."""

@@ -225,6 +225,34 @@ def test_a_carried_doll_keeps_its_shape_and_stays_out_of_its_carrier_while_the_c
     assert doll["max_pain_to_holder_j"] == 0.0, "its own doll never hurts it"
 
 
+#: The same child with its doll held by the head (the schoolyard's grip).
+CARRIER_BY_HEAD = CARRIER.replace("0.144, 0.227, 0.0]", "0.144, 0.117, -0.003]").replace("# spine", "# head")
+
+
+def test_a_doll_held_by_its_head_hangs_off_the_holding_arm_not_through_it(tmp_path, scenes):
+    scene = _scene(tmp_path, scenes, CARRIER_BY_HEAD)
+    child = scene.character_handle(scene.entity("child").entity)
+    recorder = InteractionRecorder(scene)
+    scene.step(0)
+    grab = scene.grabs()[0][1]
+    doll = scene.entity("doll")
+    assert scene.state.links.b[grab.index] == doll.body.node_start + doll.node_names.index("head"), (
+        "by its head"
+    )
+    for velocity in ((0, 0, 1.6), (0, 0, -1.6), (1.6, 0, 0), (-1.2, 0, 1.2)):
+        child.walk(velocity)
+        for _ in range(2 * 60):
+            scene.step()
+            recorder.step()
+    doll = recorder.report()["carried"]["doll"]
+    assert doll["frames"] == 8 * 60
+    # only its head's capsule passes through the hand; the rest of it meets the arm, so it
+    # hangs below the hand (held by its middle, its torso lay along the forearm, 5.6 cm deep)
+    assert doll["max_depth_in_carrier_m"] <= 0.02, "the doll does not sink into its carrier"
+    assert doll["max_link_error"] <= 0.02, "every link of the doll within 2 % of its length"
+    assert doll["max_pain_to_holder_j"] == 0.0, "its own doll never hurts it"
+
+
 def test_a_grab_eases_out_to_its_standoff_rather_than_jumping_to_it(tmp_path, scenes):
     from twig_ecs.systems.constrain import GRAB_CLOSING
 

@@ -104,7 +104,7 @@ COLLIDER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "body": (np.int32, (), -1),
     "local": (np.int32, (), 0),  # index among its body's colliders (0..63)
     "mask": (np.uint64, (), 0),  # bit k set: never collide with local collider k of own body
-    "ignore": (np.int32, (2,), -1),  # up to two bodies it never collides with (what it holds)
+    "ignore": (np.int32, (2,), -1),  # two bodies it never meets (what it holds), or -2-k: collider k
     # Tactile sensing written by the collide kernel each step (SPEC 2):
     "hit_energy": (np.float64, (), 0.0),  # largest impact kinetic energy this step (J)
     "hit_by": (np.int32, (), -1),  # collider that delivered it
@@ -286,7 +286,8 @@ def _plan(view: type, blocks: tuple[Block, ...]) -> tuple[list[tuple[int, Callab
 
 
 def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
-    """Add ``body`` to a collider's (two) ignored bodies; a third replaces the second."""
+    """Add ``body`` to a collider's (two) ignored bodies; a third replaces the second. A
+    value ``-2 - k`` ignores collider ``k`` alone (a carried thing's capsule at the hand)."""
     slots = ignore[collider]
     if body in slots:
         return
@@ -458,9 +459,23 @@ class PhysicsState:
         self.held = self._loose_held(grabs)
         self.gentle = self._gentle_pairs(grabs)
         held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
+        carried = {(int(lk.a[g]), int(lk.b[g])) for g in grabs if int(lk.a[g]) in elbow_of}
+        carried = {(hand, node) for hand, node in carried if int(n.body[node]) in self._held_bodies()}
         held_pairs += [(a, b) for a, b, _ in self.released]
+        for hand, node in carried:
+            # a carried thing: only its capsules at the node the hand holds pass through the
+            # holding arm; the rest of it meets that arm as it meets the rest of the body, so
+            # it hangs off the arm rather than lying along (and through) the forearm
+            thing, arm = int(n.body[node]), {hand, elbow_of[hand]}
+            arm_capsules = [c for c in range(total) if int(col.a[c]) in arm or int(col.b[c]) in arm]
+            for c in range(total):
+                if int(col.body[c]) == thing and node in (int(col.a[c]), int(col.b[c])):
+                    for other in arm_capsules:
+                        _ignore(col.ignore, c, -2 - other)
         for a, b in held_pairs:
             ba, bb = int(n.body[a]), int(n.body[b])
+            if (a, b) in carried:
+                continue
             arm_a = {a, elbow_of.get(a, a)}
             # the held end is an arm too only when it is a hand (hand in hand); the
             # capsules at a held doll's middle still meet the carrier's body
@@ -471,6 +486,10 @@ class PhysicsState:
                 elif int(col.a[c]) in arm_b or int(col.b[c]) in arm_b:
                     _ignore(col.ignore, c, ba)
         self.version += 1
+
+    def _held_bodies(self) -> set[int]:
+        """The bodies of the loose things hands hold now (rows of ``held``)."""
+        return {int(self.nodes.body[first]) for first in self.held[:, 0]}
 
     def _loose_held(self, grabs: np.ndarray) -> np.ndarray:
         """The bodies held by the grab joints ``grabs`` that are loose things - not a
