@@ -84,7 +84,7 @@ class Ride(Behavior):
                 )
             return
         bar = ride.node(spin.bar)
-        if _torso_pitch(character) > LET_GO:
+        if character.torso_pitch > LET_GO:
             # the bar pulls it over (a low rim it must squat to, a deck turning faster than
             # it can follow): it lets go rather than be dragged down
             self._done(character)
@@ -162,12 +162,6 @@ class Ride(Behavior):
             spin.phase = "go"
         character.stop()
         character.pose("hang")
-
-
-def _torso_pitch(character) -> float:
-    """The pelvis-to-neck line's angle from the vertical (degrees)."""
-    up = character.node("neck") - character.node("pelvis")
-    return float(np.degrees(np.arctan2(np.hypot(up[0], up[2]), up[1])))
 
 
 def _flat_unit(v: np.ndarray) -> np.ndarray:

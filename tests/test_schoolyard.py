@@ -156,7 +156,8 @@ def _contact_figures_hold(report) -> None:
         # the issue's 0.8: kicks no longer send the ball against the deck nor stand the kicker
         # on it (seeds 0-3 read 0.68, 0.41, 0.86, 0.99 before, legs caught in its bars);
         # and a player's way to the ball goes round the deck, not across it: seeds 0-3 now
-        # 1.0, 0.95, 1.0, 0.89 (what is left: a child on its way to a hug brushing the rim)
+        # 1.0, 0.95, 1.0, 0.89 on that branch, 0.98, 0.98, 0.99, 0.99 merged with session 7's
+        # locomotion (what is left: a child on its way to a hug brushing the rim)
         assert pushes["hand_on_fraction"] >= 0.8, "a hand was on the merry-go-round when it spun up"
     hug = figures["hugs"]["small_child->parent"]
     assert hug["both_arms_fraction"] >= 0.7, "both of the child's arms round the parent"
@@ -164,7 +165,7 @@ def _contact_figures_hold(report) -> None:
     assert hug["max_pain_j"] == 0.0, "no hug hurts either side"
     assert hug["max_limb_depth_m"] <= 0.02, "no arm sinks into the other body"
     for fight in figures["fights"].values():
-        # seeds 0-3: 0.63, 0.74, 0.70, 0.69 (0.68, 0.73, 0.64, 0.65 before) - a victim that
+        # seeds 0-3: 0.71, 0.73, 0.72, 0.73 (0.68, 0.73, 0.64, 0.65 in session 6) - a victim that
         # staggers back and turns away, as it should, is not facing its fighter for those frames
         assert fight["face_to_face_fraction"] >= 0.6, "a scuffle is face to face"
         assert fight["max_victim_shift_m"] <= 4.0, "the victim is not shoved metres away"
@@ -172,12 +173,13 @@ def _contact_figures_hold(report) -> None:
     assert figures["yard"]["max_outside_m"] == 0.0, figures["yard"]
     doll = figures["carried"]["ragdoll"]
     assert doll["max_pain_to_holder_j"] == 0.0, "its own doll never hurts the child"
-    # seeds 0-3: 0.0051, 0.0062, 0.0059, 0.0064 (0.0198-0.0202 while a knock could flip its
+    # seeds 0-3: 0.0047, 0.0049, 0.0050, 0.0068 (0.0198-0.0202 while a knock could flip its
     # pelvis through its hip bar, a mirrored torso its stiffeners cannot hold)
     assert doll["max_link_error"] <= 0.02, "every link of the carried doll within 2 %"
     # held by its head it hangs off the arm (held by its middle it lay along the forearm, 5.6 cm
-    # deep on every seed); its torso is 3.3 cm thick. Seeds 0-3: 1.4, 2.1, 1.4, 3.0 cm
-    assert doll["max_depth_in_carrier_m"] <= 0.03, "the doll does not pass through its carrier"
+    # deep on every seed); its torso is 3.3 cm thick. Seeds 0-3: 0.93, 0.98, 1.11, 0.97 cm; the
+    # issue's bar for anything held: sunk at most 2 cm
+    assert doll["max_depth_in_carrier_m"] <= 0.02, "the doll does not pass through its carrier"
 
 
 @pytest.mark.slow  # reads the shared five-minute run

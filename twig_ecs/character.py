@@ -205,6 +205,13 @@ class CharacterHandle(BodyHandle):
         return f / (np.linalg.norm(f) or 1.0)
 
     @property
+    def torso_pitch(self) -> float:
+        """The torso's lean from upright (degrees): the pelvis-to-neck line's angle from the vertical."""
+        pos = self.scene.state.nodes.pos
+        up = pos[self._role("neck")] - pos[self._role("pelvis")]
+        return math.degrees(math.atan2(math.hypot(float(up[0]), float(up[2])), float(up[1])))
+
+    @property
     def shoulder_facing(self) -> np.ndarray:
         """Unit ground-plane vector the shoulders face."""
         pos = self.scene.state.nodes.pos

@@ -460,7 +460,8 @@ class PhysicsState:
         self.gentle = self._gentle_pairs(grabs)
         held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
         carried = {(int(lk.a[g]), int(lk.b[g])) for g in grabs if int(lk.a[g]) in elbow_of}
-        carried = {(hand, node) for hand, node in carried if int(n.body[node]) in self._held_bodies()}
+        held_bodies = self._held_bodies()
+        carried = {(hand, node) for hand, node in carried if int(n.body[node]) in held_bodies}
         held_pairs += [(a, b) for a, b, _ in self.released]
         for hand, node in carried:
             # a carried thing: only its capsules at the node the hand holds pass through the

@@ -1,11 +1,12 @@
 """Torso figures of a run: does every character stay upright (issue 14, BELIEVABILITY.md)?
 
 :class:`TorsoRecorder` watches a scene step by step and measures each character's torso
-pitch - the pelvis-to-neck line's angle from the vertical, as :func:`twig_ecs.walklab.torso_pitch`
-measures it - leaving out the frames within :data:`AFTER_BLOW` seconds of a blow that hurt
-it (a ``pain`` event on its body): a person knocked off balance may fold over; one walking,
-playing or pushing a merry-go-round does not. ``twig run --report json`` gives the figures
-as its ``torso`` section.
+pitch - the pelvis-to-neck line's angle from the vertical (``CharacterHandle.torso_pitch``;
+:func:`twig_ecs.walklab.torso_pitch` measures the same over a recorded track) - leaving
+out the frames within :data:`AFTER_BLOW` seconds of a blow that hurt it (a ``pain`` event
+on its body): a person knocked off balance may fold over; one walking, playing or pushing
+a merry-go-round does not. ``twig run --report json`` gives the figures as its ``torso``
+section.
 """
 
 from __future__ import annotations
@@ -40,8 +41,7 @@ class TorsoRecorder:
         scene.activate()
         for entity, _ in esper.get_component(Character):
             me = scene.character_handle(entity)
-            up = me.node("neck") - me.node("pelvis")
-            pitch = math.degrees(math.atan2(math.hypot(float(up[0]), float(up[2])), float(up[1])))
+            pitch = me.torso_pitch
             entry = self.figures.setdefault(
                 me.name, {"max_deg": 0.0, "at_s": 0.0, "frames_over": 0, "frames_over_after_blows": 0}
             )
