@@ -94,6 +94,15 @@ def empty_scene(scenes):
 
 
 @pytest.fixture
+def pair(empty_scene):
+    """Two characters 2.5 m apart, facing each other: ``a`` (1.75 m) and ``b`` (1.6 m)."""
+    empty_scene.spawn("humanoid", name="a", character=True)
+    empty_scene.spawn("humanoid", name="b", character=True, position=(0.2, 0.0, 2.5), facing=180, height=1.6)
+    empty_scene.run(0.3)
+    return empty_scene
+
+
+@pytest.fixture
 def zero_g_scene(scenes):
     """An empty scene without gravity."""
     scene = Scene(settings=Settings(gravity=np.zeros(3)))

@@ -107,12 +107,9 @@ def test_removing_a_character_mid_withdrawal_takes_its_retreat_with_it(hurt):
     assert esper.get_component(Withdrawing) == []
 
 
-def test_hands_reaching_round_in_a_hug_are_a_component_that_ends_with_the_hug(scenes):
-    scene = Scene.load("empty")
-    scenes.append(scene)
-    a = scene.spawn("humanoid", name="a", character=True)
-    b = scene.spawn("humanoid", name="b", character=True, position=(0.2, 0.0, 2.5), facing=180, height=1.6)
-    scene.run(0.3)
+def test_hands_reaching_round_in_a_hug_are_a_component_that_ends_with_the_hug(pair):
+    scene = pair
+    a, b = scene.entity("a"), scene.entity("b")
     goal = a.hug("b", duration=1.0)
     seen = set()
     for _ in range(15 * 60):

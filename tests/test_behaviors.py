@@ -64,17 +64,6 @@ def test_without_the_curl_term_the_same_approach_stalls_at_the_wall(scenes):
     assert walker.position[2] < 2.5, "it never got past the wall"
 
 
-@pytest.fixture
-def pair(scenes):
-    """Two characters 2.5 m apart, facing each other."""
-    scene = Scene.load("empty")
-    scenes.append(scene)
-    scene.spawn("humanoid", name="a", character=True)
-    scene.spawn("humanoid", name="b", character=True, position=(0.2, 0.0, 2.5), facing=180, height=1.6)
-    scene.run(0.3)
-    return scene
-
-
 def torso_gap(scene: Scene, hugger: str, other: str) -> float:
     """Closest distance between the hugger's torso capsules and any capsule of the other."""
     from helpers import _closest

@@ -161,12 +161,9 @@ def test_a_swinging_foot_stays_within_its_legs_reach_in_sharp_turns(scenes):
     assert worst <= 1.02, f"a foot got {worst:.3f} leg lengths from its hip"
 
 
-def test_elbows_and_knees_stay_in_a_human_range_in_a_grapple(scenes):
-    scene = Scene.load("empty")
-    scenes.append(scene)
-    a = scene.spawn("humanoid", name="a", character=True)
-    b = scene.spawn("humanoid", name="b", character=True, position=(0.2, 0.0, 2.5), facing=180, height=1.6)
-    scene.run(0.3)
+def test_elbows_and_knees_stay_in_a_human_range_in_a_grapple(pair):
+    scene = pair
+    a, b = scene.entity("a"), scene.entity("b")
     a.grapple("b", duration=4.0)
     elbows, knees = [], []
     for _ in range(7 * 60):
