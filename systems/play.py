@@ -106,16 +106,21 @@ class Play(Behavior):
         anxiety = attachment.anxiety if attachment is not None else 0.0
         return playful.joy * (1.0 - 0.5 * anxiety)
 
+    def _decks(self) -> list[tuple[np.ndarray, float]]:
+        """The scene's turning decks (looked up once: their axles do not move)."""
+        if self.decks is None:
+            self.decks = decks_of(self.scene)
+        return self.decks
+
     def _target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
         """A new place to send the toy: inside the yard, or near where the toy started;
         away from any turning deck, and not across one (of a few draws, the clearest)."""
-        if self.decks is None:
-            self.decks = decks_of(self.scene)
+        decks = self._decks()
         best, clearest = None, -np.inf
-        for _ in range(TRIES if self.decks else 1):
+        for _ in range(TRIES if decks else 1):
             place = self._draw_target(toy_name, toy_at)
-            clear = min(deck_clearance(self.decks, place, place) - DECK_MARGIN,
-                        deck_clearance(self.decks, toy_at, place) - DECK_PATH)  # fmt: skip
+            clear = min(deck_clearance(decks, place, place) - DECK_MARGIN,
+                        deck_clearance(decks, toy_at, place) - DECK_PATH)  # fmt: skip
             if clear > clearest:
                 best, clearest = place, clear
             if clear >= 0.0:
@@ -199,9 +204,7 @@ class Play(Behavior):
                        scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
         """A toy by a turning deck: the spot behind it may be on the deck, where the legs
         catch its bars and kick it round; stand off the rim and kick the toy from there."""
-        if self.decks is None:
-            self.decks = decks_of(self.scene)
-        for centre, radius in self.decks:
+        for centre, radius in self._decks():
             out = spot[[0, 2]] - centre
             far = float(np.linalg.norm(out))
             clear = radius + DECK_CLEAR * scale
@@ -217,7 +220,7 @@ class Play(Behavior):
         """Where to head for ``spot``: straight there, unless the way crosses a turning deck
         (the field's push off its rim is soft, and legs in its bars spin it): then out off the
         deck, or to the point beside it on the near side, past its rim."""
-        for centre, radius in self.decks or ():
+        for centre, radius in self._decks():
             clear = radius + DECK_CLEAR * scale
             if deck_clearance([(centre, clear)], here, spot) >= 0.0:
                 continue
