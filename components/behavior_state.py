@@ -46,7 +46,7 @@ class Spin:
     """A child's go at the merry-go-round (systems/ride.py): walk there, take hold, run round."""
 
     since: float  # s it got the urge
-    phase: str = "go"  # go -> take -> run
+    phase: str = "go"  # go -> take -> run -> leave
     bar: str = ""  # the node of the ride it holds
     phase_since: float = 0.0
     hands: tuple = ()  # the hands it takes hold with

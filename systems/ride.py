@@ -4,7 +4,8 @@ For each character with a :class:`~twig_ecs.components.Rider`: on a whim (``whim
 per second) it walks to the merry-go-round's rim by the nearest bar it can get its
 hands on - an overhead handle if its reach is high enough, else the deck's rim, which
 it stoops to - reaches for it with its free hands and takes hold (grab joints); then it
-runs round alongside for ``PUSH_TIME`` seconds, holding on, and lets go. The spin comes
+runs round alongside for ``PUSH_TIME`` seconds, holding on, lets go and steps back out
+from the rim before it does anything else (the deck still turns). The spin comes
 only from that hold: the running child's arms pull the bar round (no force is applied
 to the merry-go-round by the behaviour).
 """
@@ -27,7 +28,10 @@ GIVE_UP = 12.0  # s to get there
 TAKE_TIME = 2.5  # s to get a hand on the bar once there
 RUN = 2.4  # m/s (at 1.75 m tall) running round alongside
 STOOPED = 0.8  # m/s (at 1.75 m tall) walking round alongside, stooped to the deck's rim
-OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands and runs
+OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands by the rim bar
+RUN_OUTSIDE = 0.36  # m (at 1.75 m tall) outside the rim where it runs holding a handle: the inner
+# foot clear of the rim bar (its feet met the turning bar there and it was thrown)
+LEAVE_TIME = 0.8  # s at most stepping back out from the rim after letting go
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
 LET_GO = 28.0  # degrees: a torso pulled this far from upright by the bar lets go of it
 
@@ -64,11 +68,19 @@ class Ride(Behavior):
         centre = ride.node("hub") if "hub" in names else pos.mean(axis=0)
         rim = max(ground_distance(p, centre) for p in pos)
         character.look_at(rider.ride)
+        if spin.phase == "leave":
+            # stand up and step back out, clear of the turning rim, before anything else
+            away = ground_distance(character.position, centre) - rim
+            if away > 2.0 * RUN_OUTSIDE * scale or now - spin.phase_since > LEAVE_TIME:
+                self._done(character)
+            else:
+                character.walk(_flat_unit(character.position - centre) * STOOPED * scale)
+            return
         if spin.phase == "go":
             spin.bar = self._bar_for(character, ride, centre)
             bar = ride.node(spin.bar)
             out = _flat_unit(bar - centre)
-            spot = centre + out * (rim + OUTSIDE * scale)
+            spot = centre + out * (rim + _outside(spin.bar) * scale)
             if ground_distance(character.position, spot) < 0.3:
                 spin.phase, spin.phase_since = "take", now
                 spin.hands = tuple(h for h in ("left", "right") if h not in character.holding)
@@ -87,7 +99,7 @@ class Ride(Behavior):
         if character.torso_pitch > LET_GO:
             # the bar pulls it over (a low rim it must squat to, a deck turning faster than
             # it can follow): it lets go rather than be dragged down
-            self._done(character)
+            self._leave(character, spin, now)
             return
         if spin.phase == "take":
             # step in until the bar is within an arm's length of the shoulders
@@ -110,7 +122,7 @@ class Ride(Behavior):
             if any(character.holding.get(h) == rider.ride for h in spin.hands):
                 spin.phase, spin.phase_since = "run", now
             elif now - spin.phase_since > TAKE_TIME:
-                self._done(character)
+                self._leave(character, spin, now)
             return
         # run round alongside, holding on: along the rim's tangent, steering back to a
         # circle just outside it
@@ -121,7 +133,7 @@ class Ride(Behavior):
             # from frame to frame (a child turned back and forth on the spot, and fell)
             tangent = -tangent
         character.stoop(tuple(bar))  # the bar goes round with it: lean to where it is now
-        off = ground_distance(character.position, centre) - (rim + OUTSIDE * scale)
+        off = ground_distance(character.position, centre) - (rim + _outside(spin.bar) * scale)
         # stooped to the deck's rim it pushes at a walk: nobody runs in a squat
         pace = (RUN if spin.bar.startswith("handle") else STOOPED) * scale
         walk = tangent * pace - out * 1.5 * off
@@ -129,7 +141,7 @@ class Ride(Behavior):
         limit = character.character.max_speed
         character.walk(walk * min(1.0, limit / max(speed, 1e-9)))
         if now - spin.phase_since > PUSH_TIME:
-            self._done(character)
+            self._leave(character, spin, now)
 
     def _bar_for(self, character, ride, centre: np.ndarray) -> str:
         """The node it will hold: the nearest overhead handle if it can reach that high,
@@ -141,6 +153,11 @@ class Ride(Behavior):
         if not handles or pos[handles[0]][1] > shoulder + 0.75 * ARM * character.scale:
             handles = [k for k, n in enumerate(names) if n.startswith("rim")] or list(range(len(names)))
         return names[min(handles, key=lambda k: ground_distance(pos[k], character.position))]
+
+    def _leave(self, character, spin, now: float) -> None:
+        """Let go and step back out from the rim (the ``leave`` phase)."""
+        self._let_go(character)
+        spin.phase, spin.phase_since = "leave", now
 
     def _done(self, character) -> None:
         if esper.has_component(character.entity, Spin):
@@ -162,6 +179,11 @@ class Ride(Behavior):
             spin.phase = "go"
         character.stop()
         character.pose("hang")
+
+
+def _outside(bar: str) -> float:
+    """How far outside the rim (m at 1.75 m tall) a rider holding ``bar`` stands and runs."""
+    return RUN_OUTSIDE if bar.startswith("handle") else OUTSIDE
 
 
 def _flat_unit(v: np.ndarray) -> np.ndarray:

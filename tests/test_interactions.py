@@ -109,6 +109,38 @@ def test_running_round_holding_a_handle_spins_the_merry_go_round(tmp_path, scene
     assert pushes["hand_on_fraction"] >= 0.8, "it spins up only while a hand holds a bar"
 
 
+def test_a_rider_runs_round_clear_of_the_rim_upright_and_steps_back_out_when_it_lets_go(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + ",\n     behaviors: [{use: ride, ride: merry_go_round, whim: 5.0}]}\n"
+        "  - {name: merry_go_round, body: merry_go_round, position: [-3, 0, 3]}\n",
+    )
+    kid = scene.character_handle(scene.entity("kid").entity)
+    centre = scene.entity("merry_go_round").node("hub")
+    rim = 1.5  # m from the axle to the deck's rim nodes
+
+    def out(node: str) -> float:
+        return float(np.hypot(*(kid.node(node) - centre)[[0, 2]]))
+
+    scene.step(0)
+    nearest_foot, pitch, after_letting_go = np.inf, 0.0, []
+    held_until = None
+    for _ in range(int(20.0 / scene.dt)):
+        scene.step()
+        pitch = max(pitch, float(kid.torso_pitch))
+        if "merry_go_round" in kid.holding.values():
+            held_until = scene.time
+            nearest_foot = min(nearest_foot, out("l_foot"), out("r_foot"))
+        elif held_until is not None and scene.time - held_until >= 0.6:
+            after_letting_go.append(out("pelvis"))  # 0.6 s after it let go
+            held_until = None
+    assert len(after_letting_go) >= 2, "it rides again and again"
+    assert nearest_foot > rim, f"a foot came {nearest_foot:.2f} m from the axle: over the rim"
+    assert pitch <= 35.0, "upright all the while"
+    assert min(after_letting_go) > rim + 0.2, "it steps back out from the turning rim, clear of it"
+
+
 def test_a_child_with_a_doll_hugs_a_parent_with_both_arms_and_the_parent_holds_it_back(tmp_path, scenes):
     scene = _scene(
         tmp_path,

@@ -9,8 +9,8 @@ from twig_ecs import Scene, walklab
 from twig_ecs.events import Pain
 from twig_ecs.torso import TorsoRecorder
 
-#: Frames (1/60 s) the small child's torso may spend beyond 35 degrees in five minutes of the schoolyard
-#: (seeds 0-3: 0, 12, 40, 32 frames; before: 83 on seed 0, two falls to 79 deg): no fall on seed 0
+#: Frames (1/60 s) a child's torso may spend beyond 35 degrees in five minutes of the schoolyard
+#: (seed 0 now: small child 44, big child 3; session 7's main: 10 and 61): no fall on seed 0
 FOLD_FRAMES = 60
 
 
@@ -204,13 +204,14 @@ def test_the_torso_figures_count_a_fall_but_not_a_fold_right_after_a_blow(scenes
 
 
 @pytest.mark.slow  # reads the shared five-minute run
-def test_five_minutes_in_the_schoolyard_keep_the_small_child_and_the_parent_upright(yard_five_minutes):
+def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes):
     torso = yard_five_minutes.report["torso"]["characters"]
     assert set(torso) == {"parent", "big_child", "small_child"}
     assert torso["parent"]["max_deg"] <= 10.0, torso["parent"]
     # before (main bf67a60): 79 deg and 83 frames beyond 35 - it fell twice after a ride,
     # stepping on the deck's rim; and it folded over in a squat run round that rim
-    small = torso["small_child"]
-    assert small["frames_over"] <= FOLD_FRAMES and small["max_deg"] <= 50.0, small
-    # not asserted: the big child, still thrown by its own kicks and by its feet meeting the
-    # deck's rim as it runs round holding a handle (docs/locomotion.md, "Schoolyard")
+    # session 7's main (45de1e8): small child 44 deg and 10 frames beyond 35; big child 77 deg and
+    # 61 frames - its feet met the deck's rim bar as it ran round holding a handle that drew it in
+    # over the rim, and it was thrown as it let go. Now 42 (44 frames) and 37 (3 frames)
+    for who in ("small_child", "big_child"):
+        assert torso[who]["frames_over"] <= FOLD_FRAMES and torso[who]["max_deg"] <= 50.0, torso[who]
