@@ -57,6 +57,7 @@ class ContactColumns(NamedTuple):
     radius: np.ndarray  # m
     hit_energy: np.ndarray  # J: the largest impact this step (written)
     hit_by: np.ndarray  # the collider that delivered it (written)
+    body: np.ndarray  # the collider's body row
     count: int
 
 
@@ -313,6 +314,7 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
     """
     pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
     col_a, col_b, col_r, hit_energy, hit_by = cols.a, cols.b, cols.radius, cols.hit_energy, cols.hit_by
+    body = cols.body
     worst = 0.0
     for k in range(n_pairs):
         i = pairs[k, 0]
@@ -431,11 +433,15 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         # or the leg would stretch after it
         for q in (a, b, c, d):
             flags[q] &= ~np.uint32(NODE_MOVING)
-        # a contact pushing a capsule upwards supports it: high (ground) damping
-        if ny > 0.5:
+        # a contact pushing a capsule upwards supports it: high (ground) damping, and a foot
+        # may plant there. Only another body's: a knee resting on its own other thigh, or one
+        # shin crossed over the other in a turn, marked the foot as standing on something and
+        # it planted in mid-air
+        apart = body[i] != body[j]
+        if ny > 0.5 and apart:
             flags[a] |= NODE_IN_CONTACT
             flags[b] |= NODE_IN_CONTACT
-        elif ny < -0.5:
+        elif ny < -0.5 and apart:
             flags[c] |= NODE_IN_CONTACT
             flags[d] |= NODE_IN_CONTACT
     return worst
