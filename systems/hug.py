@@ -37,6 +37,8 @@ WRAP_TIME = 3.0  # s to get the arms round
 REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
 CREEP = 0.3  # m/s of the last steps in, arms going round
 LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
+LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
+LEAN_FADE = 10.0  # ... from full at this many degrees less
 BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
@@ -96,7 +98,11 @@ class Hug(Behavior):
         else:
             character.stop()
         if phase == "hold" and other.scale > BIG * scale:
-            character.lean(toward * LEAN_IN * scale)  # into a grown-up's legs: they hold firm
+            # into a grown-up's legs (they hold firm), but easing off as the torso tips: with
+            # the shoulders against the partner, leaning on only pushes the hips back - the
+            # feet step away and the child folds over (40 degrees in the schoolyard)
+            share = min(1.0, max(0.0, (LEAN_MOST - character.torso_pitch) / LEAN_FADE))
+            character.lean(toward * LEAN_IN * scale * share)
         level = level_of(character, other)  # (once: the hands' points are read off the same nodes)
         for hand, point in back_points(character, other, level).items():
             glide(character, hand, round_the_side(character, other, hand, point, level), HAND_SPEED * dt)

@@ -175,6 +175,30 @@ def test_a_child_with_a_doll_hugs_a_parent_with_both_arms_and_the_parent_holds_i
     assert child.holding == {"left": "doll"} or child.holding == {"right": "doll"}, "the doll is still held"
 
 
+@pytest.mark.parametrize("start", [(1.2, 3.5), (-1.5, 3.0), (0.5, 2.5)])
+def test_a_small_child_leans_into_a_grown_ups_hug_without_folding_over(tmp_path, scenes, start):
+    # the child's shoulders lean into the parent's hips; leaning on against them only pushed its
+    # own hips back, its feet stepped away and it folded over (34-48 deg from these starts)
+    x, z = start
+    scene = _scene(
+        tmp_path,
+        scenes,
+        "  - {name: parent, body: humanoid, position: [0, 0, 0], facing: 90, character: true}\n"
+        f"  - {{name: child, body: humanoid, height: 1.05, position: [{x}, 0, {z}], facing: 180,\n"
+        "     character: {hold: doll}, pain: {threshold: 0.8}}\n"
+        f"  - {{name: doll, body: ragdoll, position: [{x + 0.15}, 0.227, {z - 0.1}], facing: 180}}\n",
+    )
+    child = scene.character_handle(scene.entity("child").entity)
+    goal = child.hug("parent", duration=5.0)
+    pitches = []
+    for _ in range(14 * 60):
+        scene.step()
+        if goal.status == "active" and goal.memory.get("phase") == "hold":
+            pitches.append(child.torso_pitch)
+    assert goal.status == "done" and len(pitches) >= 200, "it held the parent for the hug's five seconds"
+    assert 5.0 <= max(pitches) <= 30.0, f"it leans in ({max(pitches):.0f} deg at most), not folds over"
+
+
 def test_equals_embrace_each_other(tmp_path, scenes):
     scene = _scene(
         tmp_path,
