@@ -32,6 +32,7 @@ OUTSIDE = 0.22  # m (at 1.75 m tall) outside the rim where it stands by the rim 
 RUN_OUTSIDE = 0.36  # m (at 1.75 m tall) outside the rim where it runs holding a handle: the inner
 # foot clear of the rim bar (its feet met the turning bar there and it was thrown)
 LEAVE_TIME = 0.8  # s at most stepping back out from the rim after letting go
+PUSH_LEAD = 0.6  # m/s (at 1.75 m tall) faster than the held bar moves that it runs: it pushes the deck
 ARM = 0.56  # m (at 1.75 m tall): shoulder to hand, straight
 LET_GO = 28.0  # degrees: a torso pulled this far from upright by the bar lets go of it
 
@@ -136,6 +137,11 @@ class Ride(Behavior):
         off = ground_distance(character.position, centre) - (rim + _outside(spin.bar) * scale)
         # stooped to the deck's rim it pushes at a walk: nobody runs in a squat
         pace = (RUN if spin.bar.startswith("handle") else STOOPED) * scale
+        # pushing a heavy deck up to speed: a little ahead of the bar, not off at a run from a
+        # standstill (the arm, holding a bar that lags behind, hauled the body back over - the
+        # lean past LET_GO flung it on to 50 degrees as it let go)
+        bar_pace = float(ride.node_velocity(spin.bar) @ tangent)
+        pace = min(pace, max(0.0, bar_pace) + PUSH_LEAD * scale)
         walk = tangent * pace - out * 1.5 * off
         speed = float(np.linalg.norm(walk))
         limit = character.character.max_speed
