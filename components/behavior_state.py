@@ -50,6 +50,7 @@ class Spin:
     bar: str = ""  # the node of the ride it holds
     phase_since: float = 0.0
     hands: tuple = ()  # the hands it takes hold with
+    run_out: float = 0.0  # m/s round the rim (signed, counter-clockwise seen from above) when it let go
 
 
 @dataclass(slots=True)

@@ -64,9 +64,8 @@ class Ride(Behavior):
         spin = esper.component_for_entity(character.entity, Spin)
         now = self.scene.time
         scale = character.scale
-        names = ride.node_names
         pos = ride.node_positions
-        centre = ride.node("hub") if "hub" in names else pos.mean(axis=0)
+        centre = _centre(ride)
         rim = max(ground_distance(p, centre) for p in pos)
         character.look_at(rider.ride)
         if spin.phase == "leave":
@@ -75,7 +74,12 @@ class Ride(Behavior):
             if away > 2.0 * RUN_OUTSIDE * scale or now - spin.phase_since > LEAVE_TIME:
                 self._done(character)
             else:
-                character.walk(_flat_unit(character.position - centre) * STOOPED * scale)
+                # running on round the rim as it slows to a stop over the leave (a run stopped
+                # dead vaulted the body over its planted foot: thrown to 50 degrees), stepping
+                # out from the rim all the while
+                out = _flat_unit(character.position - centre)
+                fade = max(0.0, 1.0 - (now - spin.phase_since) / LEAVE_TIME)
+                character.walk(_round(out) * spin.run_out * fade + out * STOOPED * scale)
             return
         if spin.phase == "go":
             spin.bar = self._bar_for(character, ride, centre)
@@ -128,7 +132,7 @@ class Ride(Behavior):
         # run round alongside, holding on: along the rim's tangent, steering back to a
         # circle just outside it
         out = _flat_unit(character.position - centre)
-        tangent = np.cross([0.0, 1.0, 0.0], out)
+        tangent = _round(out)
         if float(tangent @ character.facing) < 0.0:
             # the way it faces: the held bar is at its side, so the side it lies on flips
             # from frame to frame (a child turned back and forth on the spot, and fell)
@@ -161,8 +165,11 @@ class Ride(Behavior):
         return names[min(handles, key=lambda k: ground_distance(pos[k], character.position))]
 
     def _leave(self, character, spin, now: float) -> None:
-        """Let go and step back out from the rim (the ``leave`` phase)."""
+        """Let go and step back out from the rim, running on round it as it slows (the
+        ``leave`` phase)."""
         self._let_go(character)
+        centre = _centre(self.scene.entity(self.settings(character).ride))
+        spin.run_out = float(character.walk_velocity @ _round(_flat_unit(character.position - centre)))
         spin.phase, spin.phase_since = "leave", now
 
     def _done(self, character) -> None:
@@ -190,6 +197,17 @@ class Ride(Behavior):
 def _outside(bar: str) -> float:
     """How far outside the rim (m at 1.75 m tall) a rider holding ``bar`` stands and runs."""
     return RUN_OUTSIDE if bar.startswith("handle") else OUTSIDE
+
+
+def _centre(ride) -> np.ndarray:
+    """The axle's point of a ride: its ``hub`` node, else the middle of its nodes."""
+    return ride.node("hub") if "hub" in ride.node_names else ride.node_positions.mean(axis=0)
+
+
+def _round(out: np.ndarray) -> np.ndarray:
+    """The way round a deck (counter-clockwise seen from above) at a point ``out`` from its
+    centre (a unit ground vector)."""
+    return np.cross([0.0, 1.0, 0.0], out)
 
 
 def _flat_unit(v: np.ndarray) -> np.ndarray:
