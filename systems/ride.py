@@ -104,7 +104,7 @@ class Ride(Behavior):
         if character.torso_pitch > LET_GO:
             # the bar pulls it over (a low rim it must squat to, a deck turning faster than
             # it can follow): it lets go rather than be dragged down
-            self._leave(character, spin, now)
+            self._leave(character, spin, now, centre)
             return
         if spin.phase == "take":
             # step in until the bar is within an arm's length of the shoulders
@@ -127,7 +127,7 @@ class Ride(Behavior):
             if any(character.holding.get(h) == rider.ride for h in spin.hands):
                 spin.phase, spin.phase_since = "run", now
             elif now - spin.phase_since > TAKE_TIME:
-                self._leave(character, spin, now)
+                self._leave(character, spin, now, centre)
             return
         # run round alongside, holding on: along the rim's tangent, steering back to a
         # circle just outside it
@@ -151,7 +151,7 @@ class Ride(Behavior):
         limit = character.character.max_speed
         character.walk(walk * min(1.0, limit / max(speed, 1e-9)))
         if now - spin.phase_since > PUSH_TIME:
-            self._leave(character, spin, now)
+            self._leave(character, spin, now, centre)
 
     def _bar_for(self, character, ride, centre: np.ndarray) -> str:
         """The node it will hold: the nearest overhead handle if it can reach that high,
@@ -164,11 +164,10 @@ class Ride(Behavior):
             handles = [k for k, n in enumerate(names) if n.startswith("rim")] or list(range(len(names)))
         return names[min(handles, key=lambda k: ground_distance(pos[k], character.position))]
 
-    def _leave(self, character, spin, now: float) -> None:
+    def _leave(self, character, spin, now: float, centre: np.ndarray) -> None:
         """Let go and step back out from the rim, running on round it as it slows (the
-        ``leave`` phase)."""
+        ``leave`` phase); ``centre``: the deck's axle point."""
         self._let_go(character)
-        centre = _centre(self.scene.entity(self.settings(character).ride))
         spin.run_out = float(character.walk_velocity @ _round(_flat_unit(character.position - centre)))
         spin.phase, spin.phase_since = "leave", now
 
