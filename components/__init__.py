@@ -16,7 +16,6 @@ from twig_ecs.components.attention import (
 )
 from twig_ecs.components.behavior_state import (
     Glance,
-    HandAims,
     Kicking,
     LastFight,
     Spin,
@@ -26,6 +25,6 @@ from twig_ecs.components.behavior_state import (
 from twig_ecs.components.character import Character
 from twig_ecs.components.physics import Body, GrabJoint, Name, PainSensor
 
-__all__ = ["Attachment", "Body", "Character", "Feisty", "Glance", "GrabJoint", "HandAims", "Kicking",
+__all__ = ["Attachment", "Body", "Character", "Feisty", "Glance", "GrabJoint", "Kicking",
            "LastFight", "Memory", "Name", "PainSensor", "Perception", "Playful", "Rider", "Spin", "ToyHome",
            "Wander", "Watchful", "Withdrawing"]  # fmt: skip

@@ -11,7 +11,7 @@ dies with the entity. A behaviour's *parameters* stay in its own component
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -63,14 +63,6 @@ class Kicking:
     kick_ends: float = -1e9  # s the swinging foot lands
     speed_before: float = 0.0  # m/s of the toy before the kick
     counted: bool = True  # has the last kick been judged (touched or missed)?
-
-
-@dataclass(slots=True)
-class HandAims:
-    """Where a hugging or embracing character's hands are reaching (systems/embrace.py
-    ``glide``): points that move towards their goal a little each step, by hand."""
-
-    points: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(slots=True)

@@ -8,16 +8,24 @@ steps on the spot). Once the hug's arms go round (``wrap`` or ``hold``, within
 each hand reaches for a point just behind the hugger's spine (a little to its side), so
 the arms close round the hugger's torso. When the hug is over it lets go (the arms
 relax) and stands up; what it was doing resumes.
+
+A batch behaviour: every embracing character is moved by one :func:`embrace_arms` call
+over arrays; the pairs (who hugs whom) are looked up again only when the hug goals or
+the store's rows change. :func:`glide_hand` (a hand's reach point gliding round a body,
+kept in the character table's ``hand_aim``) is shared with the hug.
 """
 
 from __future__ import annotations
 
+import math
+
 import esper
 import numpy as np
+from numba import njit
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
-from twig_ecs.components import HandAims
-from twig_ecs.steering import length
+from twig_ecs.components import Character, GrabJoint
+from twig_ecs.kernelmath import GAZE_NODE, HEAD, L_HAND, L_HIP, NECK, PELVIS, R_HIP, REACH, SIT, SPINE
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -33,48 +41,129 @@ SIDE = 0.07  # m (at 1.75 m tall, the hugger's) either side of the spine for two
 HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand that flew at a
 # small child's back would be a blow: 1 kg at 1.3 m/s hurts a 1.05 m child)
 
+#: A hug's phases as the kernels number them (``goal.memory["phase"]``).
+PHASES = {"approach": 0, "wrap": 1, "hold": 2}
+WRAP, HOLD = PHASES["wrap"], PHASES["hold"]
+#: What an embrace kernel row asks of the Python after it (rare, per character): stand up
+#: (it walked while sitting) or stoop to ``stoop_at`` (a hugger bigger than itself).
+STAND_UP, STOOP = 1, 2
 
-def glide(character, hand: str, point: np.ndarray, step: float) -> None:
-    """Reach ``hand`` for a point that moves from the hand towards ``point`` by at most
-    ``step`` metres this step (the character's :class:`~twig_ecs.components.HandAims`
-    keeps it between steps): a hand that flew at a body would be a blow."""
-    aims = esper.try_component(character.entity, HandAims)
-    if aims is None:
-        aims = HandAims()
-        esper.add_component(character.entity, aims)
-    aim = aims.points.get(hand)
-    if aim is None:
-        aim = character.node(("l_hand", "r_hand")[hand == "right"])
-    move = point - aim
-    far = length(move)
+
+@njit(cache=True)
+def glide_hand(pos, hand_node, hand_aim, arm_point, arm_node, arm_mode, row, h, px, py, pz, step):
+    """Reach hand ``h`` (0 left, 1 right) of character ``row`` for a point that moves from
+    where it got to (``hand_aim``; the hand itself when NaN: it starts gliding) towards
+    ``(px, py, pz)`` by at most ``step`` metres this step: a hand that flew at a body would be a blow."""
+    ax, ay, az = hand_aim[row, h, 0], hand_aim[row, h, 1], hand_aim[row, h, 2]
+    if ax != ax:
+        ax, ay, az = pos[hand_node, 0], pos[hand_node, 1], pos[hand_node, 2]
+    mx, my, mz = px - ax, py - ay, pz - az
+    far = math.sqrt(mx * mx + my * my + mz * mz)
     if far > step:
-        move *= step / far
-    aims.points[hand] = aim = aim + move
-    character.reach(aim, hand=hand)  # (a fresh float array: no conversion from a tuple)
+        shrink = step / far
+        mx, my, mz = mx * shrink, my * shrink, mz * shrink
+    ax, ay, az = ax + mx, ay + my, az + mz
+    hand_aim[row, h, 0], hand_aim[row, h, 1], hand_aim[row, h, 2] = ax, ay, az
+    arm_point[row, h, 0], arm_point[row, h, 1], arm_point[row, h, 2] = ax, ay, az
+    arm_node[row, h] = -1
+    arm_mode[row, h] = REACH
 
 
 def lower_hands(character) -> None:
-    """Forget where the hands were reaching (a hug or an embrace is over)."""
-    if esper.has_component(character.entity, HandAims):
-        esper.remove_component(character.entity, HandAims)
+    """Forget where the hands were gliding to (a hug or an embrace is over)."""
+    character.scene.state.characters.hand_aim[character.character.index] = np.nan
 
 
-def held_at(character, hugger) -> str:
-    """Where on ``hugger``'s back ``character``'s hands go: its upper back ("neck") when
-    it is much smaller - a child at a grown-up's hips; its lower back ("waist", between
-    pelvis and spine) when it is about as big, under the hugger's own arms round its
-    upper back; else (a giant) its mid-back ("spine")."""
-    if hugger.scale < 0.8 * character.scale:
-        return "neck"
-    return "waist" if hugger.scale < 1.25 * character.scale else "spine"
+# fmt: off
+@njit(cache=True)
+def embrace_arms(pos, nodes, scale, mode, walk, crouch, lean, hand_aim, arm_point, arm_node, arm_mode,
+                 crows, huggers, phase, free, dt, stoop_at, asks):
+    """Move every embracing character at once: row k is character ``crows[k]`` held by the
+    character ``huggers[k]`` whose hug is in ``phase[k]``; ``free[k, h]``: hand h holds nothing.
+    Turns to a coming hugger (slow steps on the spot); once its arms go round, stands (or bends
+    over a small hugger) and glides each free hand to the hugger's back. ``asks[k]``: what the
+    Python must do after (``STAND_UP``, ``STOOP`` to ``stoop_at[k]``), else 0."""
+    step = HAND_SPEED * dt
+    for k in range(len(crows)):
+        c, o = crows[k], huggers[k]
+        nd, od = nodes[c], nodes[o]
+        s, other = scale[c], scale[o]
+        asks[k] = 0
+        tx = pos[od[PELVIS], 0] - pos[nd[PELVIS], 0]
+        tz = pos[od[PELVIS], 2] - pos[nd[PELVIS], 2]
+        norm = max(math.sqrt(tx * tx + tz * tz), 1e-9)
+        tx, tz = tx / norm, tz / norm
+        if phase[k] != WRAP and phase[k] != HOLD:
+            # turn the whole body to it: a few slow steps on the spot, facing it
+            lx = pos[nd[L_HIP], 0] - pos[nd[R_HIP], 0]
+            lz = pos[nd[L_HIP], 2] - pos[nd[R_HIP], 2]
+            fx, fz = -lz, lx
+            fn = math.sqrt(fx * fx + fz * fz)
+            if fn == 0.0:
+                fn = 1.0
+            off = math.acos(min(1.0, max(-1.0, (fx / fn) * tx + (fz / fn) * tz)))
+            if off > FACED:
+                walk[c, 0], walk[c, 1], walk[c, 2] = tx * TURN_PACE * s, 0.0, tz * TURN_PACE * s
+                if mode[c] == SIT:
+                    asks[k] = STAND_UP
+            else:
+                walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
+            continue
+        walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
+        # where on its back (held_at): the upper back of a small hugger, the lower back of an
+        # equal (under its arms), the mid-back of a bigger one
+        small = other < 0.8 * s
+        waist = not small and other < 1.25 * s
+        if waist:
+            cx = 0.5 * (pos[od[PELVIS], 0] + pos[od[SPINE], 0])
+            cy = 0.5 * (pos[od[PELVIS], 1] + pos[od[SPINE], 1])
+            cz = 0.5 * (pos[od[PELVIS], 2] + pos[od[SPINE], 2])
+        else:
+            centre = od[NECK] if small else od[SPINE]
+            cx, cy, cz = pos[centre, 0], pos[centre, 1], pos[centre, 2]
+        ux, uz = cx - pos[nd[SPINE], 0], cz - pos[nd[SPINE], 2]
+        norm = max(math.sqrt(ux * ux + uz * uz), 1e-9)
+        ux, uz = ux / norm, uz / norm
+        left_x, left_z = uz, -ux
+        bx, by, bz = cx + ux * BACK * other, cy, cz + uz * BACK * other
+        wrapping = phase[k] == WRAP
+        if small and wrapping:
+            # a small hugger: stand tall while its arms go round (bending over it now
+            # would push it off), the hands coming to rest over its shoulders
+            bx, by, bz = cx, cy + UP * other, cz
+            crouch[c] = 0.0
+            lean[c, 0] = lean[c, 1] = lean[c, 2] = 0.0
+        elif small:  # then the hands on its upper back, bending a little over it (a
+            # deeper bend or a crouch would push it off)
+            by += HIGH * other
+            lean[c, 0], lean[c, 1], lean[c, 2] = ux * LEAN * s, 0.0, uz * LEAN * s
+        elif waist:  # an equal: stand tall, arms round its lower back, under its own arms
+            # (bending or crouching would push it off)
+            crouch[c] = 0.0
+            lean[c, 0] = lean[c, 1] = lean[c, 2] = 0.0
+        else:  # a bigger hugger: get down to it (CharacterHandle.stoop, after)
+            stoop_at[k, 0], stoop_at[k, 1], stoop_at[k, 2] = bx, by, bz
+            asks[k] = STOOP
+        spread = (SHOULDER if small and wrapping else SIDE) * other
+        for h in range(2):
+            if free[k, h]:
+                side = 1.0 - 2.0 * h
+                glide_hand(pos, nd[L_HAND + h], hand_aim, arm_point, arm_node, arm_mode, c, h,
+                           bx + left_x * side * spread, by, bz + left_z * side * spread, step)
+# fmt: on
 
 
-def huggers_of(scene) -> dict[int, tuple[int, str]]:
-    """Who is hugging whom right now: {hugged entity: (hugger entity, hug phase)}."""
-    return {
-        hugged: (hugger, goal.memory.get("phase", "approach"))
-        for hugged, (hugger, goal) in goal_targets(scene, "hug").items()
-    }
+def holding_hands(scene, entities) -> np.ndarray:
+    """(n, 2) bools: which hands of each of ``entities`` hold nothing (left, right). Found
+    from the scene's grab joints, which are few, rather than a look-up per character."""
+    free = np.ones((len(entities), 2), dtype=np.bool_)
+    holders = {joint.holder for _, joint in esper.get_component(GrabJoint)}
+    if holders:
+        for k, entity in enumerate(entities):
+            if entity in holders:
+                holding = esper.component_for_entity(entity, Character).holding
+                free[k] = ("left" not in holding, "right" not in holding)
+    return free
 
 
 @register
@@ -82,71 +171,86 @@ class Embrace(Behavior):
     """Hold someone who hugs you: face them, stoop to them, arms round their back."""
 
     name = "embrace"
+    batch = True
 
     def setup(self) -> None:
-        """Who hugs whom this step (looked up once per step)."""
-        self.hugged_by: dict[int, int] = {}
+        """Who hugs whom, looked up again when the hug goals or the store's rows change."""
+        self.hugged_by: dict[int, tuple[int, str]] = {}  # hugged entity: (hugger entity, hug phase)
+        self._pairs_key: tuple = ()
+        # per pair: hugged entity, its mind, hugged row, hugger entity, hugger row, hug goal
+        self._pairs: list[tuple] = []
+        self._rows_of: dict[int, int] = {}  # hugged entity: its hugger's character row
 
-    def candidates(self) -> list[tuple[int, Mind]]:
-        """Only the characters someone is hugging."""
-        self.hugged_by = huggers_of(self.scene)
-        return [(e, esper.component_for_entity(e, Mind)) for e in self.hugged_by
-                if esper.entity_exists(e) and esper.has_component(e, Mind)]  # fmt: skip
+    def __getstate__(self) -> dict:
+        """Pickle (snapshots) without the pair cache: it is rebuilt from the goals."""
+        state = self.__dict__.copy()
+        state["_pairs_key"], state["_pairs"], state["_rows_of"] = (), [], {}
+        return state
 
-    def activation(self, character, mind: Mind, goal) -> float:
-        """High while a hugger is close (or coming, to turn to it)."""
-        hugger, phase = self.hugged_by.get(character.entity, (None, ""))
-        if hugger is None:
-            return 0.0
-        other = self.scene.character_handle(hugger)
-        far = np.hypot(*(other.position - character.position)[[0, 2]])
-        return EMBRACE if far < (NEAR if phase in ("wrap", "hold") else TURN_NEAR) else 0.0
+    def _refresh_pairs(self) -> None:
+        scene = self.scene
+        state = scene.state
+        holders = scene.goal_holders_of("hug")
+        key = (tuple(mind.goals[0].id for _, mind in holders), state.version, id(state))
+        if key == self._pairs_key:
+            return
+        pairs = []
+        for hugged, (hugger, goal) in goal_targets(scene, "hug").items():
+            if not (esper.entity_exists(hugged) and esper.has_component(hugged, Mind)):
+                continue
+            me = esper.try_component(hugged, Character)
+            them = esper.try_component(hugger, Character)
+            if me is None or them is None:
+                continue
+            mind = esper.component_for_entity(hugged, Mind)
+            pairs.append((hugged, mind, me.index, hugger, them.index, goal))
+        self._pairs, self._pairs_key = pairs, key
+        self._rows_of = {p[0]: p[4] for p in pairs}
+
+    def process(self, dt: float) -> None:
+        """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
+        self._refresh_pairs()
+        pairs = self._pairs
+        self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach")) for p in pairs}
+        if not pairs:
+            return
+        pos, nodes = self.scene.state.nodes.pos, self.scene.state.characters.nodes
+        mine = pos[nodes[[p[2] for p in pairs], PELVIS]]
+        theirs = pos[nodes[[p[4] for p in pairs], PELVIS]]
+        far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])
+        for pair, gap in zip(pairs, far.tolist(), strict=True):
+            hugged, mind = pair[0], pair[1]
+            if not mind.autonomous:
+                continue  # a scripted character does only what it is told
+            near = NEAR if self.hugged_by[hugged][1] in ("wrap", "hold") else TURN_NEAR
+            if gap < near:
+                mind.activations[self.name] = EMBRACE
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Turn to a coming hugger; then bend to it, hands on its back."""
-        hugger, phase = self.hugged_by[character.entity]
-        other = self.scene.character_handle(hugger)
-        character.look_at(other.name, node="head")
-        to = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
-        to /= max(length(to), 1e-9)
-        if phase not in ("wrap", "hold"):
-            # turn the whole body to it: a few slow steps on the spot, facing it
-            off = float(np.arccos(np.clip(character.facing @ to, -1.0, 1.0)))
-            if off > FACED:
-                character.walk(tuple(to * TURN_PACE * character.scale))
+        self.act_batch([character.character.index], [character.entity], dt)
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
+        """Turn, stand or stoop, and glide the free hands, for every embracing character at once."""
+        scene = self.scene
+        state = scene.state
+        ch = state.characters
+        huggers = np.array([self._rows_of[e] for e in entities], dtype=np.int64)
+        crows = np.array(rows, dtype=np.int64)
+        phase = np.array([PHASES.get(self.hugged_by[e][1], 0) for e in entities], dtype=np.int64)
+        ch.gaze_node[crows] = ch.nodes[huggers, HEAD]  # look at the hugger's head
+        ch.gaze_mode[crows] = GAZE_NODE
+        stoop_at = np.empty((len(rows), 3))
+        asks = np.empty(len(rows), dtype=np.int64)
+        embrace_arms(state.nodes.pos, ch.nodes, ch.scale, ch.mode, ch.walk, ch.crouch, ch.lean, ch.hand_aim,
+                     ch.arm_point, ch.arm_node, ch.arm_mode, crows, huggers, phase,
+                     holding_hands(scene, entities), dt, stoop_at, asks)  # fmt: skip
+        for k in np.flatnonzero(asks):
+            character = scene.character_handle(entities[k])
+            if asks[k] == STAND_UP:
+                character.stand()
             else:
-                character.stop()
-            return
-        character.stop()
-        back_node = held_at(character, other)
-        if back_node == "waist":
-            centre = 0.5 * (other.node("pelvis") + other.node("spine"))
-        else:
-            centre = other.node(back_node)
-        through = (centre - character.node("spine")) * np.array([1.0, 0.0, 1.0])
-        through /= max(length(through), 1e-9)
-        left = np.array([through[2], 0.0, -through[0]])
-        back = centre + through * BACK * other.scale
-        small = back_node == "neck"
-        if small and phase == "wrap":
-            # a small hugger: stand tall while its arms go round (bending over it now
-            # would push it off), the hands coming to rest over its shoulders
-            back = centre + UP * other.scale * np.array([0.0, 1.0, 0.0])
-            character.stoop(None)
-        elif small:  # then the hands on its upper back, bending a little over it (a
-            # deeper bend or a crouch would push it off)
-            back[1] += HIGH * other.scale
-            character.lean(tuple(through * LEAN * character.scale))
-        elif back_node == "waist":  # an equal: stand tall, arms round its lower back, under
-            # its own arms (bending or crouching would push it off)
-            character.stoop(None)
-        else:
-            character.stoop(tuple(back))  # a smaller (not small) hugger: get down to it
-        for hand, side in (("left", 1.0), ("right", -1.0)):
-            if hand in character.holding:
-                continue
-            spread = SIDE if not (small and phase == "wrap") else SHOULDER
-            glide(character, hand, back + left * side * spread * other.scale, HAND_SPEED * dt)
+                character.stoop(stoop_at[k].copy())
 
     def stop(self, character, goal) -> None:
         """Arms down, stand up."""

@@ -13,21 +13,48 @@ instead of sinking into it. A small hugger holds a grown-up round the hips; betw
 equals the hugger's arms go round the partner's upper back, the partner's round its
 waist. Arms that get no hand onto the back within ``WRAP_TIME`` fail the goal; one hand
 round by then is a hug (a short arm round a broad body).
+
+A batch behaviour: the walk-up is steered per character (it is brief); every hugger whose
+arms are going round or holding is moved by one :func:`hug_arms` call over arrays, with
+the pair's fixed figures (the partner's rows, its torso's thickness, the capsules it is
+touched on) packed once per goal.
 """
 
 from __future__ import annotations
 
+import math
+
+import esper
 import numpy as np
 from numba import njit
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.components import Character
 from twig_ecs.goals import GoalSchema, Param, seconds
-from twig_ecs.steering import ground_distance, length
+from twig_ecs.kernelmath import (
+    GAZE_NODE,
+    HEAD,
+    L_HAND,
+    L_HIP,
+    L_SHOULDER,
+    NECK,
+    PELVIS,
+    R_HAND,
+    R_HIP,
+    R_SHOULDER,
+    SIT,
+    SPINE,
+)
+from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
 from twig_ecs.systems.collide import closest_segment_params
 from twig_ecs.systems.embrace import (  # (importing it registers the partner's answer to a hug)
-    glide,
+    HOLD,
+    PHASES,
+    STAND_UP,
+    WRAP,
+    glide_hand,
     lower_hands,
 )
 
@@ -56,6 +83,157 @@ FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius
 CLEAR = 1.5  # forearm radii off the surface the hands rest: on the back, not squeezing it
 
 
+#: ``ROUNDS`` as (cos, sin) rows, for the kernel
+_ROUNDS = np.array([(math.cos(a), math.sin(a)) for a in ROUNDS])
+_COS_PAST, _SIN_PAST = math.cos(PAST), math.sin(PAST)
+_TORSO = (NECK, SPINE, PELVIS)  # the torso nodes an arm goes round, top down (level_of's choice)
+
+
+@njit(cache=True)
+def count_hands_on_back(pos, spine, l_hand, r_hand, pelvis_at, spine_at, neck_at):
+    """How many of a holder's hands (nodes ``l_hand``, ``r_hand``; its spine ``spine``) are on
+    a held body's back: beyond its torso (the pelvis, spine or neck node nearest the hand,
+    ``*_at``) as seen from the holder's spine, and within ON_BACK of that node."""
+    count = 0
+    for palm in (l_hand, r_hand):
+        centre, best = pelvis_at, np.inf
+        for node in (pelvis_at, spine_at, neck_at):
+            dx, dy, dz = pos[palm, 0] - pos[node, 0], pos[palm, 1] - pos[node, 1], pos[palm, 2] - pos[node, 2]
+            d = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if d < best:
+                centre, best = node, d
+        ux, uz = pos[centre, 0] - pos[spine, 0], pos[centre, 2] - pos[spine, 2]
+        n = math.sqrt(ux * ux + uz * uz)
+        if n > 1e-9:
+            ux, uz = ux / n, uz / n
+        ox, oz = pos[palm, 0] - pos[centre, 0], pos[palm, 2] - pos[centre, 2]
+        if best <= ON_BACK and ox * ux + oz * uz > 0.0:
+            count += 1
+    return count
+
+
+@njit(cache=True)
+def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
+    """Surface distance (m) from character ``c``'s torso capsules (lower and upper spine; scale
+    ``s``) to the nearest of the partner's capsules ``rows`` (link rows: its collidable
+    ones, its arms left out - a partner's arm coming round to hold it is no wall to stop at)."""
+    best = np.inf
+    for j in rows:
+        rj = link_radius[j]
+        for i in range(2):
+            a, b = pos[nodes[c, PELVIS + i]], pos[nodes[c, SPINE + i]]
+            ri = (0.12 if i == 0 else 0.13) * s
+            u, v = closest_segment_params(a, b, pos[link_a[j]], pos[link_b[j]])
+            p2, q2 = pos[link_a[j]], pos[link_b[j]]
+            d2 = 0.0
+            for q in range(3):
+                e = (a[q] + u * (b[q] - a[q])) - (p2[q] + v * (q2[q] - p2[q]))
+                d2 += e * e
+            best = min(best, math.sqrt(d2) - ri - rj)
+    return best
+
+
+# fmt: off
+@njit(cache=True)
+def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, hand_aim, arm_point, arm_node,
+             arm_mode, crows, partners, phase, surface, gap_links, gap_start, gap_count, rounds, dt,
+             on_back, asks):
+    """Move every hugger whose arms are going round (``phase[k]`` WRAP) or holding (HOLD) at once:
+    row k is character ``crows[k]`` hugging character ``partners[k]``. Closes in at a creep
+    until the torsos touch, then stands (a small hugger leans into a big partner); each hand
+    glides round the partner's torso to its point on the back (:func:`back_points`'s figures:
+    ``surface[k]`` the partner's thickest capsule at its neck, spine and pelvis, ``gap_links``
+    from ``gap_start[k]``, ``gap_count[k]`` long, its capsules the torso stops at). Writes
+    ``on_back[k]`` (hands on the back, while wrapping) and ``asks[k]`` (STAND_UP: it was sitting)."""
+    step = HAND_SPEED * dt
+    for k in range(len(crows)):
+        c, o = crows[k], partners[k]
+        nd, od = nodes[c], nodes[o]
+        s, other = scale[c], scale[o]
+        asks[k] = 0
+        on_back[k] = 0
+        dx, dz = pos[od[PELVIS], 0] - pos[nd[PELVIS], 0], pos[od[PELVIS], 2] - pos[nd[PELVIS], 2]
+        n = math.sqrt(dx * dx + dz * dz)
+        tx, tz = (dx / n, dz / n) if n > 1e-9 else (dx, dz)  # towards the partner, on the ground
+        big = other > BIG * s
+        near = (CLOSE if big else CLOSE_EQUAL) * s
+        # close in slowly while the arms go round until the torso meets the partner's
+        # body; then stand (walking or leaning on into it would push the partner off its
+        # feet: it steps to catch itself and its knee strikes - a blow)
+        if (phase[k] == WRAP and n > near
+                and torso_gap(pos, nodes, c, s, link_a, link_b, link_radius,
+                              gap_links[gap_start[k]:gap_start[k] + gap_count[k]]) > TOUCH * s):
+            walk[c, 0], walk[c, 1], walk[c, 2] = tx * CREEP, 0.0, tz * CREEP
+            if mode[c] == SIT:
+                asks[k] = STAND_UP
+        else:
+            walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
+        if phase[k] == HOLD and big:
+            # into a grown-up's legs (they hold firm), but easing off as the torso tips: with
+            # the shoulders against the partner, leaning on only pushes the hips back - the
+            # feet step away and the child folds over (40 degrees in the schoolyard)
+            ux = pos[nd[NECK], 0] - pos[nd[PELVIS], 0]
+            uz = pos[nd[NECK], 2] - pos[nd[PELVIS], 2]
+            uy = pos[nd[NECK], 1] - pos[nd[PELVIS], 1]
+            pitch = math.degrees(math.atan2(math.sqrt(ux * ux + uz * uz), uy))
+            share = min(1.0, max(0.0, (LEAN_MOST - pitch) / LEAN_FADE))
+            lean[c, 0], lean[c, 1], lean[c, 2] = tx * LEAN_IN * s * share, 0.0, tz * LEAN_IN * s * share
+        # round the partner's torso node nearest the hugger's shoulder height, less a little
+        # (level_of): a child round a grown-up's hips, equals round the upper back
+        shoulder_y = pos[nd[NECK], 1] - 0.1 * s
+        level = 0
+        best = abs(pos[od[_TORSO[0]], 1] - shoulder_y)
+        for lv in range(1, 3):
+            d = abs(pos[od[_TORSO[lv]], 1] - shoulder_y)
+            if d < best:
+                level, best = lv, d
+        centre = od[_TORSO[level]]
+        cx, cy, cz = pos[centre, 0], pos[centre, 1], pos[centre, 2]
+        ux, uz = cx - pos[nd[SPINE], 0], cz - pos[nd[SPINE], 2]  # through the partner, on the ground
+        n = math.sqrt(ux * ux + uz * uz)
+        if n > 1e-9:
+            ux, uz = ux / n, uz / n
+        lx, lz = uz, -ux  # the hugger's left
+        clear = CLEAR * FOREARM * s
+        radius = surface[k, level] + clear  # a forearm's thickness off its surface
+        if _TORSO[level] == PELVIS:  # the hips stick out sideways beyond the spine's capsule
+            hx = pos[od[L_HIP], 0] - pos[od[R_HIP], 0]
+            hy = pos[od[L_HIP], 1] - pos[od[R_HIP], 1]
+            hz = pos[od[L_HIP], 2] - pos[od[R_HIP], 2]
+            radius = max(radius, 0.5 * math.sqrt(hx * hx + hy * hy + hz * hz) + 0.08 * other + clear)
+        y = min(cy, pos[nd[NECK], 1])  # no higher than the hugger's shoulders
+        # as far round towards the spine as the arms will go (a straight line from the
+        # shoulder, less some for the curve round the torso), the same way round on both
+        # sides, from square shoulders: a hand that got further would pull its shoulder
+        # forward and twist the hugger, so the other could get less far still
+        wx = pos[nd[L_SHOULDER], 0] - pos[nd[R_SHOULDER], 0]
+        wy = pos[nd[L_SHOULDER], 1] - pos[nd[R_SHOULDER], 1]
+        wz = pos[nd[L_SHOULDER], 2] - pos[nd[R_SHOULDER], 2]
+        half = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
+        sx, sy, sz = pos[nd[NECK], 0] + half * lx, pos[nd[NECK], 1], pos[nd[NECK], 2] + half * lz
+        ca, sa = rounds[len(rounds) - 1, 0], rounds[len(rounds) - 1, 1]
+        for r in range(len(rounds)):
+            ca, sa = rounds[r, 0], rounds[r, 1]
+            px, pz = cx + radius * (ca * lx + sa * ux), cz + radius * (ca * lz + sa * uz)
+            if math.sqrt((px - sx) ** 2 + (y - sy) ** 2 + (pz - sz) ** 2) <= REACHABLE * ARM * s:
+                break
+        for h in range(2):
+            side = 1.0 - 2.0 * h
+            px, pz = cx + radius * (ca * lx * side + sa * ux), cz + radius * (ca * lz * side + sa * uz)
+            palm = nd[L_HAND + h]
+            if (pos[palm, 0] - cx) * ux + (pos[palm, 2] - cz) * uz < 0.0:
+                # still in front of the torso: first out beside it, a little past its widest
+                # (an arm goes round a body, not into it)
+                out = 1.15 * math.sqrt((px - cx) ** 2 + (pz - cz) ** 2)
+                px = cx + out * (_COS_PAST * lx * side + _SIN_PAST * ux)
+                pz = cz + out * (_COS_PAST * lz * side + _SIN_PAST * uz)
+            glide_hand(pos, palm, hand_aim, arm_point, arm_node, arm_mode, c, h, px, y, pz, step)
+        if phase[k] == WRAP:
+            on_back[k] = count_hands_on_back(pos, nd[SPINE], nd[L_HAND], nd[R_HAND], od[PELVIS], od[SPINE],
+                                             od[NECK])
+# fmt: on
+
+
 @register
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
@@ -68,59 +246,161 @@ class Hug(Behavior):
             seconds("duration", 2.0, "how long the arms stay round it"),
         ),
     )
+    batch = True
+
+    def __getstate__(self) -> dict:
+        """Pickle (snapshots) without the packed arrays: they are rebuilt from the goals."""
+        state = self.__dict__.copy()
+        state.pop("_packed", None)
+        return state
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Approach, wrap, hold, release."""
-        target = goal.params["target"]
-        m = goal.memory
-        phase = m.setdefault("phase", "approach")
-        character.look_at(target, node="head")
-        other = character.scene.entity(target)
-        scale = character.scale
-        toward = _unit(other.position - character.position)  # on the ground
-        gap = ground_distance(character.position, other.position)
-        if phase == "approach":
-            character.pose("hug")
-            if gap <= CLOSE * scale + REACH_IN:
-                m["phase"], m["since"] = "wrap", character.scene.time
-            elif gap < DOCK_FROM:
-                character.walk(toward * DOCK)  # the last steps in, at docking pace
+        """Approach, wrap, hold, release (:meth:`act_batch` for one character)."""
+        self.act_batch([character.character.index], [character.entity], dt, goals=[goal])
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
+        """Walk up (per character), then wrap and hold for every hugger at once."""
+        scene = self.scene
+        if goals is None:
+            goals = [esper.component_for_entity(e, Mind).goal for e in entities]
+        close = []
+        for row, entity, goal in zip(rows, entities, goals, strict=True):
+            if goal is None:
+                continue
+            if goal.memory.get("phase", "approach") == "approach":
+                self._walk_up(scene.character_handle(entity), goal)
             else:
-                steer_to(character, goal, target, DOCK_FROM - 0.1)
+                close.append((row, entity, goal))
+        if close:
+            self._wrap_and_hold(close, dt)
+
+    def _partner(self, character, goal: Goal):
+        """The hug's partner (a character), or None when the goal has failed for want of one."""
+        target = goal.params["target"]
+        if not character.scene.has_entity(target):
+            self.finish(character, goal, False, f"'{target}' is gone")
+            return None
+        other = character.scene.entity(target)
+        if esper.try_component(other.entity, Character) is None:
+            self.finish(character, goal, False, f"'{target}' is not a character: there is no one to hug back")
+            return None
+        return other
+
+    def _walk_up(self, character, goal: Goal) -> None:
+        """Walk up with the arms in the hug pose, slowing to docking pace; then wrap."""
+        other = self._partner(character, goal)
+        if other is None:
             return
-        now = character.scene.time
-        # close in slowly while the arms go round until the torso meets the partner's
-        # body; then stand (walking or leaning on into it would push the partner off its
-        # feet: it steps to catch itself and its knee strikes - a blow)
-        near = (CLOSE if other.scale > BIG * scale else CLOSE_EQUAL) * scale
-        if phase == "wrap" and gap > near and torso_gap(character, other) > TOUCH * scale:
-            character.walk(toward * CREEP)
+        target = goal.params["target"]
+        character.look_at(target, node="head")
+        character.pose("hug")
+        gap = ground_distance(character.position, other.position)
+        if gap <= CLOSE * character.scale + REACH_IN:
+            goal.memory["phase"], goal.memory["since"] = "wrap", character.scene.time
+        elif gap < DOCK_FROM:
+            here = other.position - character.position
+            toward = here * np.array([1.0, 0.0, 1.0])
+            norm = math.hypot(toward[0], toward[2])
+            # the last steps in, at docking pace
+            character.walk(toward / norm * DOCK if norm > 1e-9 else toward)
         else:
-            character.stop()
-        if phase == "hold" and other.scale > BIG * scale:
-            # into a grown-up's legs (they hold firm), but easing off as the torso tips: with
-            # the shoulders against the partner, leaning on only pushes the hips back - the
-            # feet step away and the child folds over (40 degrees in the schoolyard)
-            share = min(1.0, max(0.0, (LEAN_MOST - character.torso_pitch) / LEAN_FADE))
-            character.lean(toward * LEAN_IN * scale * share)
-        level = level_of(character, other)  # (once: the hands' points are read off the same nodes)
-        for hand, point in back_points(character, other, level).items():
-            glide(character, hand, round_the_side(character, other, hand, point, level), HAND_SPEED * dt)
-        if phase == "wrap":
-            on = hands_on_back(character, other)
-            if on == 2:
-                m["phase"], m["since"] = "hold", now
-            elif now - m["since"] > WRAP_TIME:
-                if on:
-                    m["phase"], m["since"] = "hold", now  # one short arm round a broad body
-                else:
-                    self.finish(character, goal, False, "could not get its arms round")
-            return
-        if now - m["since"] >= goal.params["duration"]:
-            self.finish(character, goal)
+            steer_to(character, goal, target, DOCK_FROM - 0.1)
+
+    def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
+        """One goal's fixed figures: (partner's character row, its thickest capsule at neck,
+        spine and pelvis, the link rows of its body the torso stops at); None when the
+        partner is gone (the goal has failed)."""
+        other = self._partner(self.scene.character_handle(entity), goal)
+        if other is None:
+            return None
+        links = self.scene.state.links
+        body = other.body
+        # its own link rows (contiguous), not a pass over every link in the store
+        rows = np.arange(body.link_start, body.link_start + body.link_count)
+        rows = rows[(links.body[rows] == body.index) & ((links.flags[rows] & LINK_COLLIDE) != 0)]
+        names = body.node_names
+        arm = [body.node_start + names.index(a) for a in ARM_NODES if a in names]
+        torso = rows[~(np.isin(links.a[rows], arm) | np.isin(links.b[rows], arm))]
+        surface = []
+        for name in ("neck", "spine", "pelvis"):
+            at = body.node_index(name)
+            touching = rows[(links.a[rows] == at) | (links.b[rows] == at)]
+            surface.append(float(links.radius[touching].max()) if len(touching) else 0.0)
+        return esper.component_for_entity(other.entity, Character).index, tuple(surface), torso
+
+    def _pack(self, key: tuple, close: list) -> dict | None:
+        """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change)."""
+        packed = self.__dict__.get("_packed")
+        if packed is None or packed["key"][1:] != key[1:]:
+            packed = self._packed = {"key": (), "setups": {}}
+        setups = packed["setups"]
+        live = set(key[0])
+        for gid in [g for g in setups if g not in live]:
+            del setups[gid]
+        for row, entity, goal in close:
+            if goal.id not in setups:
+                setup = self._setup(row, entity, goal)
+                if setup is None:
+                    return None  # a goal ended: pack the rest next step
+                setups[goal.id] = setup
+        chosen = [setups[goal.id] for _, _, goal in close]
+        counts = np.array([len(s[2]) for s in chosen], dtype=np.int64)
+        packed.update(
+            key=key,
+            crows=np.array([row for row, _, _ in close], dtype=np.int64),
+            partners=np.array([s[0] for s in chosen], dtype=np.int64),
+            surface=np.array([s[1] for s in chosen], dtype=np.float64).reshape(len(close), 3),
+            gap_links=np.concatenate([s[2] for s in chosen]).astype(np.int64),
+            gap_start=np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64),
+            gap_count=counts,
+            duration=np.array([goal.params["duration"] for _, _, goal in close], dtype=np.float64),
+        )
+        return packed
+
+    def _wrap_and_hold(self, close: list, dt: float) -> None:
+        scene = self.scene
+        state = scene.state
+        ch = state.characters
+        key = (tuple(goal.id for _, _, goal in close), state.version, id(state))
+        packed = self.__dict__.get("_packed")
+        if packed is None or packed["key"] != key:
+            packed = self._pack(key, close)
+            if packed is None:
+                return
+        crows, partners = packed["crows"], packed["partners"]
+        ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head
+        ch.gaze_mode[crows] = GAZE_NODE
+        phase = np.array([PHASES[goal.memory["phase"]] for _, _, goal in close], dtype=np.int64)
+        on_back = np.empty(len(close), dtype=np.int64)
+        asks = np.empty(len(close), dtype=np.int64)
+        links = state.links
+        hug_arms(state.nodes.pos, links.a, links.b, links.radius, ch.nodes, ch.scale, ch.mode, ch.walk,
+                 ch.lean, ch.hand_aim, ch.arm_point, ch.arm_node, ch.arm_mode, crows, partners, phase,
+                 packed["surface"], packed["gap_links"], packed["gap_start"], packed["gap_count"], _ROUNDS,
+                 dt, on_back, asks)  # fmt: skip
+        now = scene.time
+        since = np.array([goal.memory["since"] for _, _, goal in close])
+        ending = (phase == WRAP) & ((on_back == 2) | (now - since > WRAP_TIME))
+        ending |= (phase == HOLD) & (now - since >= packed["duration"])
+        for k in np.flatnonzero(ending | (asks != 0)):
+            _, entity, goal = close[k]
+            character = scene.character_handle(entity)
+            if asks[k] == STAND_UP:
+                character.stand()
+            if not ending[k]:
+                continue
+            if phase[k] == HOLD:
+                self.finish(character, goal)
+            elif on_back[k]:  # both hands round, or one short arm round a broad body in time
+                goal.memory["phase"], goal.memory["since"] = "hold", now
+            else:
+                self.finish(character, goal, False, "could not get its arms round")
 
     def stop(self, character, goal: Goal | None) -> None:
         """Arms down (a carried toy stays in its hand) and stand up straight."""
+        packed = self.__dict__.get("_packed")
+        if packed is not None and goal is not None:
+            packed["setups"].pop(goal.id, None)
         character.stoop(None)
         character.lean(None)
         lower_hands(character)
@@ -129,138 +409,8 @@ class Hug(Behavior):
         character.look_at(None)
 
 
-def level_of(character, other) -> str:
-    """The node of ``other``'s torso the arms go round: the one nearest the hugger's
-    shoulder height, less a little - a child hugs a grown-up round the hips (pelvis),
-    equals hug round the upper back (neck), over the arms the partner puts round their
-    waist."""
-    shoulder_y = character.node("neck")[1] - 0.1 * character.scale
-    return min(("neck", "spine", "pelvis"), key=lambda n: abs(other.node(n)[1] - shoulder_y))
-
-
-def back_points(character, other, level: str | None = None) -> dict[str, np.ndarray]:
-    """Where each of ``character``'s hands goes on ``other``'s back: round the torso at
-    :func:`level_of`, as far past each side towards the spine as the arms reach
-    (``ROUNDS``), a little more than a forearm's thickness off its surface (its widest capsule there); no
-    higher than the hugger's shoulders. ``level``: :func:`level_of` when the caller has it."""
-    level = level or level_of(character, other)
-    centre = other.node(level)
-    through = _unit(centre - character.node("spine"))
-    left = np.array([through[2], 0.0, -through[0]])  # the hugger's left
-    clear = CLEAR * FOREARM * character.scale
-    radius = _surface(other, level) + clear
-    if level == "pelvis":  # the hips stick out sideways beyond the spine's capsule
-        half = 0.5 * length(other.node("l_hip") - other.node("r_hip"))
-        radius = max(radius, half + 0.08 * other.scale + clear)
-    y = min(float(centre[1]), float(character.node("neck")[1]))
-    arm = ARM * character.scale
-    out = {}
-    # as far round towards the spine as the arms will go (a straight line from the
-    # shoulder, less some for the curve round the torso), the same way round on both
-    # sides, from square shoulders: a hand that got further would pull its shoulder
-    # forward and twist the hugger, so the other could get less far still
-    neck = character.node("neck")
-    half = 0.5 * length(character.node("l_shoulder") - character.node("r_shoulder"))
-    for angle in ROUNDS:
-        point = centre + radius * (np.cos(angle) * left + np.sin(angle) * through)
-        point[1] = y
-        if length(point - (neck + half * left)) <= REACHABLE * arm:
-            break
-    for hand, side in (("left", 1.0), ("right", -1.0)):
-        point = centre + radius * (np.cos(angle) * left * side + np.sin(angle) * through)
-        point[1] = y
-        out[hand] = point
-    return out
-
-
-def round_the_side(character, other, hand: str, point: np.ndarray, level: str | None = None) -> np.ndarray:
-    """Where ``hand`` heads for on its way to ``point`` on ``other``'s back: while it is
-    still in front of ``other``'s torso (seen from ``character``), a point out beside the
-    torso on the hand's side, a little past its widest (``PAST``), at ``point``'s height:
-    an arm goes round a body, not into it. ``level``: :func:`level_of` when the caller has it."""
-    palm = character.node(("l_hand", "r_hand")[hand == "right"])
-    centre = other.node(level or level_of(character, other))
-    through = _unit(centre - character.node("spine"))
-    if float((palm - centre) @ through) >= 0.0:
-        return point
-    left = np.array([through[2], 0.0, -through[0]])
-    side = 1.0 if hand == "left" else -1.0
-    out = length((point - centre) * np.array([1.0, 0.0, 1.0]))
-    beside = centre + 1.15 * out * (np.cos(PAST) * left * side + np.sin(PAST) * through)
-    beside[1] = point[1]
-    return beside
-
-
 def hands_on_back(holder, held) -> int:
-    """How many of ``holder``'s hands are on ``held``'s back: beyond its torso (the pelvis,
-    spine or neck node nearest the hand) as seen from ``holder``'s spine, and within
-    ON_BACK of that node."""
-    count = 0
-    for hand in ("l_hand", "r_hand"):
-        palm = holder.node(hand)
-        node = min(("pelvis", "spine", "neck"), key=lambda n: length(palm - held.node(n)))
-        centre = held.node(node)
-        through = _unit(centre - holder.node("spine"))
-        off = palm - centre
-        if length(off) <= ON_BACK and float(off @ through) > 0.0:
-            count += 1
-    return count
-
-
-def torso_gap(character, other) -> float:
-    """Surface distance (m) from ``character``'s torso capsules (lower and upper spine) to
-    the nearest collidable capsule of ``other``'s body, its arms left out (a partner's arm
-    coming round to hold it is no wall to stop at)."""
-    links, pos = other.scene.state.links, other.scene.state.nodes.pos
-    mine = [(character.node(a), character.node(b), r * character.scale)
-            for a, b, r in (("pelvis", "spine", 0.12), ("spine", "neck", 0.13))]  # fmt: skip
-    body = other.body
-    # its own link rows (contiguous), not a pass over every link in the store
-    first, last = body.link_start, body.link_start + body.link_count
-    theirs = first + np.flatnonzero((links.body[first:last] == body.index)
-                                    & ((links.flags[first:last] & LINK_COLLIDE) != 0))  # fmt: skip
-    names = body.node_names
-    arm = {body.node_start + names.index(a) for a in ARM_NODES if a in names}
-    theirs = [j for j in theirs if int(links.a[j]) not in arm and int(links.b[j]) not in arm]
-    rows = np.array(theirs, dtype=np.int64)
-    offsets = np.empty((2 * len(rows), 3))
-    torso_offsets(pos, links.a, links.b, rows, np.array([(a, b) for a, b, _ in mine]), offsets)
-    best = np.inf
-    for k, j in enumerate(theirs):
-        rj = float(links.radius[j])
-        for i, (_, _, ri) in enumerate(mine):
-            best = min(best, length(offsets[2 * k + i]) - ri - rj)
-    return best
-
-
-@njit(cache=True)
-def torso_offsets(pos, link_a, link_b, rows, mine, out):
-    """For each link row ``rows[k]`` and torso segment ``mine[i]`` (its two ends): the vector
-    between their closest points, into ``out[2 k + i]`` - the arithmetic of the per-pair
-    numpy it replaces, term by term, in one call instead of one per pair."""
-    for k in range(len(rows)):
-        j = rows[k]
-        c, d = pos[link_a[j]], pos[link_b[j]]
-        for i in range(2):
-            a, b = mine[i, 0], mine[i, 1]
-            s, t = closest_segment_params(a, b, c, d)
-            for q in range(3):
-                out[2 * k + i, q] = (a[q] + s * (b[q] - a[q])) - (c[q] + t * (d[q] - c[q]))
-
-
-def _surface(other, node: str) -> float:
-    """The radius of the thickest capsule at ``other``'s ``node`` (m)."""
-    links = other.scene.state.links
-    at = other._row(node)
-    # a node's links are its body's (contiguous rows): no pass over every link in the store
-    b = other.body
-    rows = slice(b.link_start, b.link_start + b.link_count)
-    collide = (links.flags[rows] & LINK_COLLIDE) != 0
-    body = collide & ((links.a[rows] == at) | (links.b[rows] == at))
-    return float(links.radius[rows][body].max()) if body.any() else 0.0
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    v = v * np.array([1.0, 0.0, 1.0])
-    n = length(v)
-    return v / n if n > 1e-9 else v
+    """How many of ``holder``'s hands are on ``held``'s back (:func:`count_hands_on_back`)."""
+    pos = holder.scene.state.nodes.pos
+    return int(count_hands_on_back(pos, holder._row("spine"), holder._row("l_hand"), holder._row("r_hand"),
+                                   held._row("pelvis"), held._row("spine"), held._row("neck")))  # fmt: skip

@@ -136,3 +136,84 @@ def test_a_snapshot_mid_approach_resumes_the_same_world():
             assert [g.memory.get("best") for g in approachers(copy_)[2]] == [
                 g.memory.get("best") for g in approachers(scene)[2]
             ]
+
+
+# -- hug and embrace: every hugger and every hugged character in one kernel call each --------
+
+#: (hugger height, partner height, start distance m): a child and a grown-up both ways round,
+#: equals, and starts near and far, so that in one step some rows walk up, some wrap, some hold.
+HUG_PAIRS = ((1.05, 1.75, 1.2), (1.75, 1.6, 2.5), (1.6, 1.75, 1.5), (1.6, 1.05, 2.0), (1.35, 1.35, 3.0))
+
+
+def hugging_pairs() -> Scene:
+    """The pairs of HUG_PAIRS, 4 m apart, each hugger facing its partner, every hug 1.5 s long."""
+    scene = Scene.load("empty")
+    for k, (mine, theirs, gap) in enumerate(HUG_PAIRS):
+        x = 4.0 * k
+        scene.spawn("humanoid", name=f"h{k}", position=(x, 0.0, 0.0), height=mine, character=True)
+        scene.spawn("humanoid", name=f"p{k}", position=(x, 0.0, gap), facing=180, height=theirs,
+                    character=True)  # fmt: skip
+    scene.run(0.3)
+    return scene
+
+
+def test_hugs_of_every_size_go_round_hold_and_are_held_back_in_one_batch():
+    from twig_ecs.systems.hug import hands_on_back
+
+    with hugging_pairs() as scene:
+        goals = [scene.entity(f"h{k}").hug(f"p{k}", duration=1.5) for k in range(len(HUG_PAIRS))]
+        phases_seen_together = set()
+        held = [0] * len(goals)
+        partner_hand = [0] * len(goals)
+        for _ in range(15 * 60):
+            scene.step()
+            phases = {g.memory.get("phase") for g in goals if not g.finished}
+            if len(phases) > 1:
+                phases_seen_together.add(frozenset(phases))
+            for k, goal in enumerate(goals):
+                if not goal.finished and goal.memory.get("phase") == "hold":
+                    hugger, partner = scene.entity(f"h{k}"), scene.entity(f"p{k}")
+                    held[k] += hands_on_back(hugger, partner) >= 1
+                    partner_hand[k] += hands_on_back(partner, hugger) >= 1
+            if all(g.finished for g in goals):
+                break
+        assert [g.status for g in goals] == ["done"] * len(goals), [g.reason for g in goals]
+        assert any(len(p) >= 2 for p in phases_seen_together), "rows in different phases, batched together"
+        hold_frames = int(1.5 * 60)
+        for k, (mine, theirs, _) in enumerate(HUG_PAIRS):
+            assert held[k] >= 0.9 * hold_frames, f"pair {k}: the hugger's hands were on the back"
+            if mine < 1.25 * theirs:  # (a small child held by a grown-up reaches for its mid-back and
+                # gets no hand there: it stands in the hug with its arms up - not yet believable)
+                assert partner_hand[k] >= 0.5 * hold_frames, f"pair {k}: the partner held it back"
+        for k in range(len(goals)):
+            for name in (f"h{k}", f"p{k}"):
+                assert scene.entity(name).torso_pitch < 35.0
+        assert scene.event_counts.get("pain", 0) == 0, "nobody was struck"
+        scene.step(30)
+        assert np.isnan(scene.state.characters.hand_aim).all(), "every hand was lowered after"
+
+
+def test_hugging_a_passive_body_fails_the_goal_and_the_scene_steps_on(empty_scene):
+    scene = empty_scene
+    hugger = scene.spawn("humanoid", name="a", character=True)
+    scene.spawn("humanoid", name="doll", position=(0.0, 0.0, 2.0))
+    goal = hugger.hug("doll")
+    scene.step(5)
+    assert goal.status == "failed" and "not a character" in goal.reason
+    scene.step(30)  # the world goes on
+    assert hugger.behaviour != "hug"
+
+
+def test_a_snapshot_mid_hug_resumes_the_same_world():
+    """The hug's packed arrays and the embrace's pair cache are not state: a scene restored
+    with one pair walking up, others wrapping and holding steps on exactly as the original does."""
+    with hugging_pairs() as scene:
+        for k in range(len(HUG_PAIRS)):
+            scene.entity(f"h{k}").hug(f"p{k}", duration=3.0)
+        scene.run(2.5)
+        phases = {g.memory.get("phase") for k in range(len(HUG_PAIRS)) for g in scene.entity(f"h{k}").goals}
+        assert len(phases) >= 2
+        with Scene.restore(scene.snapshot()) as copy_:
+            scene.step(90)
+            copy_.step(90)
+            assert copy_.state_hash() == scene.state_hash()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene
-from twig_ecs.components import Body, HandAims, PainSensor, Withdrawing
+from twig_ecs.components import Body, PainSensor, Withdrawing
 
 
 def test_a_crowd_has_one_entity_per_body_and_its_nodes_and_links_are_rows_of_that_body(scenes):
@@ -107,22 +107,20 @@ def test_removing_a_character_mid_withdrawal_takes_its_retreat_with_it(hurt):
     assert esper.get_component(Withdrawing) == []
 
 
-def test_hands_reaching_round_in_a_hug_are_a_component_that_ends_with_the_hug(pair):
+def test_hands_gliding_round_in_a_hug_are_state_that_ends_with_the_hug(pair):
     scene = pair
     a, b = scene.entity("a"), scene.entity("b")
     goal = a.hug("b", duration=1.0)
     seen = set()
     for _ in range(15 * 60):
         scene.step()
-        scene.activate()
-        aims = esper.try_component(a.entity, HandAims)
-        if aims is not None:
-            seen |= set(aims.points)
+        aims = scene.state.characters.hand_aim[a.character.index]  # (after each step: the table may grow)
+        seen |= {hand for h, hand in enumerate(("left", "right")) if np.isfinite(aims[h]).all()}
         if goal.finished:
             break
     assert goal.status == "done", goal.reason
     assert seen == {"left", "right"}, "both hands glided round while it hugged"
     scene.step(30)
-    scene.activate()
-    assert not esper.has_component(a.entity, HandAims), "the hug is over: its hands are lowered"
-    assert not esper.has_component(b.entity, HandAims), "and so is the embrace that answered it"
+    aims = scene.state.characters.hand_aim
+    assert np.isnan(aims[a.character.index]).all(), "the hug is over: its hands are lowered"
+    assert np.isnan(aims[b.character.index]).all(), "and so is the embrace that answered it"

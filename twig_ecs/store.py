@@ -137,6 +137,9 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): kernelmath.HANG, REACH... (systems/arms.py)
     "arm_point": (np.float64, (2, 3), 0.0),
     "arm_node": (np.int32, (2,), -1),
+    # where a hand gliding round a body in a hug or an embrace has got to (systems/embrace.py
+    # glide_hand): its reach point moves a little towards its goal each step; NaN: not gliding
+    "hand_aim": (np.float64, (2, 3), np.nan),
     "swing": (np.float64, (2,), 0.0),  # s left in each foot's step (0: planted)
     "last_step": (np.int32, (), 1),  # foot that stepped last (0 left, 1 right)
     "steps": (np.int64, (), 0),
