@@ -36,6 +36,9 @@ from twig_ecs.systems.constrain import (
 #: Padding (m) added to every box in the broad phase so that pairs closing in during
 #: the step's relaxation are still found.
 BROAD_MARGIN = 0.05
+#: A contact pass looks only at candidate pairs this near touching (m), picked again when a
+#: node has moved half as far (:func:`contact_pass`).
+CONTACT_MARGIN = 0.05
 #: Closing passes of only joint limits and links after the contact rounds.
 FINAL_PASSES = 4
 #: Rounds of a contact pass and a held thing's shape (``settle_shape``) after those.
@@ -448,6 +451,57 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
 
 
 @njit(cache=True)
+def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
+    """The candidate pairs (first ``n_pairs`` of ``pairs``, in order) whose capsules are
+    within ``margin`` of touching. The broad phase's boxes overlap for many more (a capsule's
+    box is much wider than it; a crowd's bodies stand side by side): a contact pass needs
+    to look only at these while no node has moved ``margin / 2`` since (:func:`contact_pass`)."""
+    near = np.empty((n_pairs, 2), dtype=pairs.dtype)
+    n = 0
+    for k in range(n_pairs):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
+        s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
+        dist2 = 0.0
+        for q in range(3):
+            e = pos[a, q] + s * (pos[b, q] - pos[a, q]) - pos[c, q] - t * (pos[d, q] - pos[c, q])
+            dist2 += e * e
+        reach = col_r[i] + col_r[j] + margin
+        if dist2 < reach * reach:
+            near[n, 0] = i
+            near[n, 1] = j
+            n += 1
+    return near, n
+
+
+@njit(cache=True)
+def moved_since(pos, anchor, count, limit):
+    """Has any of the first ``count`` nodes moved more than ``limit`` (m) from ``anchor``?"""
+    limit2 = limit * limit
+    for i in range(count):
+        dx = pos[i, 0] - anchor[i, 0]
+        dy = pos[i, 1] - anchor[i, 1]
+        dz = pos[i, 2] - anchor[i, 2]
+        if dx * dx + dy * dy + dz * dz > limit2:
+            return True
+    return False
+
+
+@njit(cache=True)
+def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor, record, dt):
+    """:func:`resolve_contacts` over the ``near`` pairs (picked from the candidates ``pairs``
+    by :func:`near_pairs` where the nodes stood at ``anchor``), picked again first if any node has
+    moved half the margin since: then no pair left out can have closed its gap, and the pass
+    does exactly what one over every candidate would. Returns the near pairs it used."""
+    if moved_since(nodes.pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
+        near, n_near = near_pairs(nodes.pos, cols.a, cols.b, cols.radius, pairs, n_pairs, CONTACT_MARGIN)
+        anchor[: nodes.count] = nodes.pos[: nodes.count]
+    resolve_contacts(nodes, cols, near, n_near, record, dt)
+    return near, n_near
+
+
+@njit(cache=True)
 def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held):
     """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
     constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`), then
@@ -461,27 +515,34 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     for k in range(cols.count):
         cols.hit_energy[k] = 0.0
         cols.hit_by[k] = -1
+    # every contact pass visits only the candidate pairs near enough to touch (a crowd's
+    # candidates are mostly further apart: a hugging crowd's, five in six), and does what a
+    # pass over all of them would: a pair further apart is skipped by each pass anyway
+    near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
+    anchor = pos[: nodes.count].copy()
     for it in range(iterations):
-        resolve_contacts(nodes, cols, pairs, n_pairs, it == 0, dt)
+        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, it == 0, dt)
         relax_once(c)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact;
         # a contact pass before each, so that what they undo of a contact is redone
         # (bool(False), not False: numba would compile resolve_contacts again for a literal)
-        resolve_contacts(nodes, cols, pairs, n_pairs, bool(False), dt)  # noqa: UP018
+        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
         project_limits(nodes, c.limits)
         project_links(nodes, c.links)
     project_limits(nodes, c.limits)  # limits have the last word
     # ... but for a carried doll: its shape, settled between contact passes, so that it
     # neither stretches (a few cm links on light nodes) nor sinks into its carrier
     for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):
-        resolve_contacts(nodes, cols, pairs, n_pairs, bool(False), dt)  # noqa: UP018
+        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
         settle_shape(nodes, c.links, held, SETTLE_PASSES)
+    if moved_since(pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
+        near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
-    for k in range(n_pairs):
-        i = pairs[k, 0]
-        j = pairs[k, 1]
+    for k in range(n_near):
+        i = near[k, 0]
+        j = near[k, 1]
         if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
             continue  # two fixed things (fence panels meeting at a post) overlap by design
         s, t = closest_segment_params(pos[col_a[i]], pos[col_b[i]], pos[col_a[j]], pos[col_b[j]])

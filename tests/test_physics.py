@@ -208,3 +208,35 @@ def test_a_knee_driven_into_its_limit_stops_without_bouncing(zero_g_scene):
     before = _kinetic_energy(scene)
     solve_constraints(scene.settings.iterations, constraints_of(scene.state))
     assert _kinetic_energy(scene) <= 1.01 * before
+
+
+def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_order():
+    """``near_pairs`` keeps, in the broad phase's order, the candidate pairs whose capsules are
+    within the margin of touching (measured here by sampling both segments densely)."""
+    from twig_ecs.bench.cases import hugging_pairs
+    from twig_ecs.systems.collide import CollideSystem, near_pairs
+
+    with hugging_pairs(40) as scene:
+        scene.run(4.0)  # arms round: many pairs touching, many more close, most boxes just overlapping
+        collide = next(s for s in scene.schedule.systems() if isinstance(s, CollideSystem))
+        n = collide.broad_phase()
+        st = scene.state
+        pos, col = st.nodes.pos, st.colliders
+        pairs = st.pairs[:n]
+        near, count = near_pairs(pos, col.a, col.b, col.radius, st.pairs, n, 0.1)
+        t = np.linspace(0.0, 1.0, 201)[:, None]
+        gaps = []
+        for i, j in pairs:
+            p = pos[col.a[i]] + t * (pos[col.b[i]] - pos[col.a[i]])
+            q = pos[col.a[j]] + t * (pos[col.b[j]] - pos[col.a[j]])
+            closest = np.sqrt(((p[:, None] - q[None]) ** 2).sum(axis=2)).min()
+            gaps.append(closest - col.radius[i] - col.radius[j])
+        gaps = np.array(gaps)
+        # sampled distances overestimate by at most the spacing: leave out the borderline ones
+        sure_in = {tuple(p) for p, g in zip(pairs.tolist(), gaps, strict=True) if g < 0.1 - 0.01}
+        sure_out = {tuple(p) for p, g in zip(pairs.tolist(), gaps, strict=True) if g > 0.1 + 0.01}
+        kept = [tuple(p) for p in near[:count].tolist()]
+        assert sure_in <= set(kept) and not (sure_out & set(kept))
+        assert 0 < len(sure_in) < 0.6 * n, "most candidate pairs are further apart than that"
+        order = {p: k for k, p in enumerate(map(tuple, pairs.tolist()))}
+        assert [order[p] for p in kept] == sorted(order[p] for p in kept)
