@@ -25,10 +25,10 @@ from twig_ecs.systems.constrain import (
     SETTLE_PASSES,
     NodeColumns,
     constraints_of,
+    limits_pass,
+    links_pass,
     named_constraints,
     nudge,
-    project_limits,
-    project_links,
     relax_once,
     settle_shape,
 )
@@ -528,9 +528,9 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
         # a contact pass before each, so that what they undo of a contact is redone
         # (bool(False), not False: numba would compile resolve_contacts again for a literal)
         near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
-        project_limits(nodes, c.limits)
-        project_links(nodes, c.links)
-    project_limits(nodes, c.limits)  # limits have the last word
+        limits_pass(c)
+        links_pass(c)
+    limits_pass(c)  # limits have the last word
     # ... but for a carried doll: its shape, settled between contact passes, so that it
     # neither stretches (a few cm links on light nodes) nor sinks into its carrier
     for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):

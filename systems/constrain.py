@@ -9,10 +9,13 @@ that equal and opposite corrections keep the total momentum.
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from typing import NamedTuple
 
+import numba
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from twig_ecs.store import (
     LINK_GRAB,
@@ -30,6 +33,11 @@ from twig_ecs.system import System
 GRAB_CLOSING = 0.6
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
+#: Bodies from which the link and limit passes split by body across threads: a body's rows
+#: touch only its own nodes, so bodies can be projected at once and come out to the last
+#: bit as one after the other would leave them. Fewer bodies are done on one thread (a
+#: parallel region's start costs more than a small scene's pass).
+PARALLEL_BODIES = 200
 
 
 # -- what the kernels take: named views of the store's columns (the arrays themselves, not
@@ -83,6 +91,19 @@ class AxleColumns(NamedTuple):
     axle_height: np.ndarray  # m along the axle from ``axle_a``
 
 
+class BodyPlan(NamedTuple):
+    """How the link and limit passes split by body (:func:`body_plan`): ``*_chunks`` are row
+    ranges each moving one body's nodes only; ``*_groups`` the starts (and end) of runs of
+    chunks of different bodies, which may be projected at once. A row that joins two bodies
+    (a grab joint) is a chunk and a run of its own, in its place in the order."""
+
+    link_chunks: np.ndarray  # (n, 2) int64: first row, end row
+    link_groups: np.ndarray  # (runs + 1,) int64: first chunk of each run, then the chunk count
+    limit_chunks: np.ndarray
+    limit_groups: np.ndarray
+    parallel: bool  # split across threads at all (enough bodies, more than one thread)
+
+
 class Constraints(NamedTuple):
     """Everything one relaxation pass projects (:func:`relax_once`)."""
 
@@ -90,16 +111,73 @@ class Constraints(NamedTuple):
     links: LinkColumns
     limits: LimitColumns
     axles: AxleColumns
+    plan: BodyPlan
 
 
 def constraints_of(state) -> tuple:
     """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
     plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
-    :class:`LimitColumns` and :class:`AxleColumns` (see :func:`~twig_ecs.store.columns`);
-    :func:`named_constraints` names them again."""
+    :class:`LimitColumns`, :class:`AxleColumns` and :class:`BodyPlan` (see
+    :func:`~twig_ecs.store.columns`); :func:`named_constraints` names them again."""
     n, lim = state.nodes, state.limits
     return (columns(NodeColumns, n), columns(LinkColumns, state.links), columns(LimitColumns, lim),
-            columns(AxleColumns, n))  # fmt: skip
+            columns(AxleColumns, n), body_plan(state))  # fmt: skip
+
+
+#: Per store: (its layout key, its :class:`BodyPlan` fields), made again when rows come or go.
+_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def body_plan(state) -> tuple:
+    """The :class:`BodyPlan` fields of a store's links and limits (kept until its rows change)."""
+    links, limits, node_body = state.links, state.limits, state.nodes.body
+    # threads only from the main thread: numba's default thread pool must not be entered by two
+    # threads at once (it ends the process), and a scene stepped elsewhere may not be the only one
+    main = threading.current_thread() is threading.main_thread()
+    key = (state.version, links.count, limits.count, state.bodies.count, numba.get_num_threads(), main)
+    known = _PLANS.get(state)
+    if known is not None and known[0] == key:
+        return known[1]
+    a, b = links.a[: links.count], links.b[: links.count]
+    link_body = node_body[a]
+    link_chunks, link_groups = _chunks(link_body, link_body != node_body[b])
+    mid = limits.mid[: limits.count]
+    limit_body = node_body[mid]
+    others = [limits.root[: limits.count], limits.tip[: limits.count]]
+    others += [limits.frame[: limits.count, k] for k in range(4)]
+    limit_cross = np.zeros(limits.count, dtype=bool)
+    for rows in others:
+        limit_cross |= node_body[rows] != limit_body
+    limit_chunks, limit_groups = _chunks(limit_body, limit_cross)
+    parallel = bool(state.bodies.count >= PARALLEL_BODIES and numba.get_num_threads() > 1 and main)
+    plan = (link_chunks, link_groups, limit_chunks, limit_groups, parallel)
+    _PLANS[state] = (key, plan)
+    return plan
+
+
+def _chunks(body: np.ndarray, cross: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``0..len(body)`` (of body ``body[k]``; ``cross``: it joins two bodies) as chunks of
+    consecutive rows of one body, grouped into runs in which no body comes twice."""
+    n = len(body)
+    if n == 0:
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(1, dtype=np.int64)
+    begins = np.ones(n, dtype=bool)
+    begins[1:] = (body[1:] != body[:-1]) | cross[1:] | cross[:-1]
+    starts = np.flatnonzero(begins)
+    chunks = np.stack([starts, np.append(starts[1:], n)], axis=1).astype(np.int64)
+    groups, seen = [0], set()
+    for q, (first, is_cross) in enumerate(zip(body[starts].tolist(), cross[starts].tolist(), strict=True)):
+        if is_cross or first in seen:
+            if q > groups[-1]:
+                groups.append(q)  # a run ends before a joint, or before a body it has had
+            seen = set()
+        if is_cross:
+            groups.append(q + 1)  # the joint alone
+        else:
+            seen.add(first)
+    if groups[-1] != len(chunks):
+        groups.append(len(chunks))
+    return chunks, np.array(groups, dtype=np.int64)
 
 
 @njit(cache=True, inline="always")
@@ -141,15 +219,14 @@ def nudge(pos, i, f, dx, dy, dz):
     pos[i, 2] += f * dz
 
 
-@njit(cache=True)
-def project_links(nodes, links):
-    """One pass over all links: pi -= wi (|o|-d)/(|o| (wi+wj)) o, pj += wj (...) o.
-
-    Ropes are only pulled back when longer than their length.
+@njit(cache=True, inline="always")  # (in both the serial and the threaded pass: compiled once each)
+def project_link_rows(nodes, links, start, end):
+    """One pass over link rows ``start``..``end``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
+    pj += wj (...) o. Ropes are only pulled back when longer than their length.
     """
     pos, inv_mass, flags = nodes.pos, nodes.inv_mass, nodes.flags
     la, lb, rest, lflags = links.a, links.b, links.rest, links.flags
-    for k in range(links.count):
+    for k in range(start, end):
         if lflags[k] & LINK_OFF:
             continue  # (first: a switched-off brace costs no square root)
         i = la[k]
@@ -172,6 +249,12 @@ def project_links(nodes, links):
         pos[j, 0] += wj * f * ox
         pos[j, 1] += wj * f * oy
         pos[j, 2] += wj * f * oz
+
+
+@njit(cache=True)
+def project_links(nodes, links):
+    """One pass over all links (:func:`project_link_rows`)."""
+    project_link_rows(nodes, links, 0, links.count)
 
 
 #: Passes over a held loose thing's own links at the end of each step (:func:`settle_shape`).
@@ -274,9 +357,9 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     return 1.0 - min(dn, approach) / dn
 
 
-@njit(cache=True)
-def project_limits(nodes, limits):
-    """One pass over hinge limits (knees, elbows).
+@njit(cache=True, inline="always")
+def project_limit_rows(nodes, limits, start, end):
+    """One pass over hinge limits (knees, elbows) ``start``..``end``.
 
     The mid node's bend (its offset from the root-tip line) must point within the arc
     [arc_min, arc_max] (at most 180 degrees wide) around the reference direction.
@@ -284,7 +367,7 @@ def project_limits(nodes, limits):
     pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
     root, mid, tip, frame = limits.root, limits.mid, limits.tip, limits.frame
     side, ref, arc_min, arc_max, edges = limits.side, limits.ref, limits.arc_min, limits.arc_max, limits.edges
-    for k in range(limits.count):
+    for k in range(start, end):
         r = root[k]
         m = mid[k]
         t = tip[k]
@@ -429,6 +512,50 @@ def project_limits(nodes, limits):
 
 
 @njit(cache=True)
+def project_limits(nodes, limits):
+    """One pass over all hinge limits (:func:`project_limit_rows`)."""
+    project_limit_rows(nodes, limits, 0, limits.count)
+
+
+@njit(cache=True, parallel=True)
+def project_by_body(nodes, links, limits, chunks, groups, of_links):
+    """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
+    chunks at once, across threads, the runs one after the other."""
+    for g in range(len(groups) - 1):
+        lo, hi = groups[g], groups[g + 1]
+        if hi - lo == 1:  # (a grab joint, or a lone body: no threads to start)
+            if of_links:
+                project_link_rows(nodes, links, chunks[lo, 0], chunks[lo, 1])
+            else:
+                project_limit_rows(nodes, limits, chunks[lo, 0], chunks[lo, 1])
+            continue
+        for q in prange(lo, hi):
+            if of_links:
+                project_link_rows(nodes, links, chunks[q, 0], chunks[q, 1])
+            else:
+                project_limit_rows(nodes, limits, chunks[q, 0], chunks[q, 1])
+
+
+@njit(cache=True)
+def links_pass(c):
+    """One pass over every link of the :class:`Constraints` ``c`` (split by body when planned).
+    (``bool(True)``, not ``True``: numba compiles a literal as another specialisation.)"""
+    if c.plan.parallel:
+        project_by_body(c.nodes, c.links, c.limits, c.plan.link_chunks, c.plan.link_groups, bool(True))  # noqa: UP018
+    else:
+        project_links(c.nodes, c.links)
+
+
+@njit(cache=True)
+def limits_pass(c):
+    """One pass over every joint limit of ``c`` (split by body when planned)."""
+    if c.plan.parallel:
+        project_by_body(c.nodes, c.links, c.limits, c.plan.limit_chunks, c.plan.limit_groups, bool(False))  # noqa: UP018
+    else:
+        project_limits(c.nodes, c.limits)
+
+
+@njit(cache=True)
 def project_axles(nodes, axles):
     """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
     pos, flags = nodes.pos, nodes.flags
@@ -474,17 +601,21 @@ def relax_once(c):
     """One relaxation pass over the :class:`Constraints` ``c``: limits, axles, the ground, then
     links (and grab joints)."""
     # links last: they are the constraints we most want exact after a pass
-    project_limits(c.nodes, c.limits)
+    limits_pass(c)
     project_axles(c.nodes, c.axles)
     project_ground(c.nodes)
-    project_links(c.nodes, c.links)
+    links_pass(c)
 
 
 @njit(cache=True)
 def named_constraints(args) -> Constraints:
     """The :class:`Constraints` of :func:`constraints_of`'s plain tuples."""
     return Constraints(
-        NodeColumns(*args[0]), LinkColumns(*args[1]), LimitColumns(*args[2]), AxleColumns(*args[3])
+        NodeColumns(*args[0]),
+        LinkColumns(*args[1]),
+        LimitColumns(*args[2]),
+        AxleColumns(*args[3]),
+        BodyPlan(*args[4]),
     )
 
 

@@ -240,3 +240,44 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
         assert 0 < len(sure_in) < 0.6 * n, "most candidate pairs are further apart than that"
         order = {p: k for k, p in enumerate(map(tuple, pairs.tolist()))}
         assert [order[p] for p in kept] == sorted(order[p] for p in kept)
+
+
+def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state(monkeypatch):
+    """A crowd big enough for the threaded passes (a grab joint among them: a body pair that must
+    wait its turn) steps to the last bit as on one thread; scenes stepped from other threads at
+    the same time run their passes on one thread (numba's pool takes one caller at a time)."""
+    import threading
+
+    from twig_ecs.bench.cases import crowd
+    from twig_ecs.systems import constrain
+
+    size = constrain.PARALLEL_BODIES + 20
+
+    def world() -> Scene:
+        scene = crowd(size)
+        first = scene.character_handle(int(scene.state.characters.entity[0]))
+        scene.spawn("ball", name="toy", position=tuple(first.node("r_hand")))
+        first.grab("toy", hand="right")
+        return scene
+
+    threaded = world()
+    assert constrain.body_plan(threaded.state)[4], "this crowd's passes are split across threads"
+    threaded.step(90)
+    chunks, groups = constrain.body_plan(threaded.state)[:2]
+    runs = np.diff(groups)
+    assert runs.max() >= constrain.PARALLEL_BODIES and (runs == 1).any(), "bodies share runs; the joint waits"
+    monkeypatch.setattr(constrain, "PARALLEL_BODIES", 10**9)
+    alone = world()
+    assert not constrain.body_plan(alone.state)[4]
+    alone.step(90)
+    assert alone.state_hash() == threaded.state_hash()
+    monkeypatch.undo()
+    others = [world() for _ in range(2)]
+    steppers = [threading.Thread(target=scene.step, args=(90,)) for scene in others]
+    for t in steppers:
+        t.start()
+    for t in steppers:
+        t.join()
+    assert [s.state_hash() for s in others] == [threaded.state_hash()] * 2
+    for scene in (threaded, alone, *others):
+        scene.close()
