@@ -39,6 +39,8 @@ BROAD_MARGIN = 0.05
 #: A contact pass looks only at candidate pairs this near touching (m), picked again when a
 #: node has moved half as far (:func:`contact_pass`).
 CONTACT_MARGIN = 0.05
+#: Candidate pairs from which the contact passes pick the near ones (fewer: all of them).
+NEAR_FROM = 2048
 #: Closing passes of only joint limits and links after the contact rounds.
 FINAL_PASSES = 4
 #: Rounds of a contact pass and a held thing's shape (``settle_shape``) after those.
@@ -494,7 +496,7 @@ def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
     by :func:`near_pairs` where the nodes stood at ``anchor``), picked again first if any node has
     moved half the margin since: then no pair left out can have closed its gap, and the pass
     does exactly what one over every candidate would. Returns the near pairs it used."""
-    if moved_since(nodes.pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
+    if n_near < n_pairs and moved_since(nodes.pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
         near, n_near = near_pairs(nodes.pos, cols.a, cols.b, cols.radius, pairs, n_pairs, CONTACT_MARGIN)
         anchor[: nodes.count] = nodes.pos[: nodes.count]
     resolve_contacts(nodes, cols, near, n_near, record, dt)
@@ -518,8 +520,12 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     # every contact pass visits only the candidate pairs near enough to touch (a crowd's
     # candidates are mostly further apart: a hugging crowd's, five in six), and does what a
     # pass over all of them would: a pair further apart is skipped by each pass anyway
-    near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
-    anchor = pos[: nodes.count].copy()
+    if n_pairs >= NEAR_FROM:
+        near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
+        anchor = pos[: nodes.count].copy()
+    else:  # a small scene: a pass over them all costs less than watching for moves
+        near, n_near = pairs, n_pairs
+        anchor = pos[:0].copy()  # (never read: no pair is left out)
     for it in range(iterations):
         near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, it == 0, dt)
         relax_once(c)
@@ -536,7 +542,7 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):
         near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
         settle_shape(nodes, c.links, held, SETTLE_PASSES)
-    if moved_since(pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
+    if n_near < n_pairs and moved_since(pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
         near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0

@@ -118,26 +118,32 @@ def constraints_of(state) -> tuple:
     """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
     plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
     :class:`LimitColumns`, :class:`AxleColumns` and :class:`BodyPlan` (see
-    :func:`~twig_ecs.store.columns`); :func:`named_constraints` names them again."""
-    n, lim = state.nodes, state.limits
-    return (columns(NodeColumns, n), columns(LinkColumns, state.links), columns(LimitColumns, lim),
-            columns(AxleColumns, n), body_plan(state))  # fmt: skip
-
-
-#: Per store: (its layout key, its :class:`BodyPlan` fields), made again when rows come or go.
-_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def body_plan(state) -> tuple:
-    """The :class:`BodyPlan` fields of a store's links and limits (kept until its rows change)."""
-    links, limits, node_body = state.links, state.limits, state.nodes.body
+    :func:`~twig_ecs.store.columns`); :func:`named_constraints` names them again. Made once
+    for both systems of a step, and again only when rows come or go (arrays are replaced
+    only then)."""
+    n, links, limits = state.nodes, state.links, state.limits
     # threads only from the main thread: numba's default thread pool must not be entered by two
     # threads at once (it ends the process), and a scene stepped elsewhere may not be the only one
     main = threading.current_thread() is threading.main_thread()
-    key = (state.version, links.count, limits.count, state.bodies.count, numba.get_num_threads(), main)
-    known = _PLANS.get(state)
+    threads = numba.get_num_threads()
+    key = (state.version, n.count, links.count, limits.count, state.bodies.count, threads, main)
+    known = _KNOWN.get(state)
     if known is not None and known[0] == key:
         return known[1]
+    args = (columns(NodeColumns, n), columns(LinkColumns, links), columns(LimitColumns, limits),
+            columns(AxleColumns, n), body_plan(state, parallel=main and threads > 1))  # fmt: skip
+    _KNOWN[state] = (key, args)
+    return args
+
+
+#: Per store: (its layout key, its :func:`constraints_of` tuple).
+_KNOWN: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def body_plan(state, parallel: bool = True) -> tuple:
+    """The :class:`BodyPlan` fields of a store's links and limits; split across threads when
+    ``parallel`` and the store has PARALLEL_BODIES bodies."""
+    links, limits, node_body = state.links, state.limits, state.nodes.body
     a, b = links.a[: links.count], links.b[: links.count]
     link_body = node_body[a]
     link_chunks, link_groups = _chunks(link_body, link_body != node_body[b])
@@ -149,10 +155,8 @@ def body_plan(state) -> tuple:
     for rows in others:
         limit_cross |= node_body[rows] != limit_body
     limit_chunks, limit_groups = _chunks(limit_body, limit_cross)
-    parallel = bool(state.bodies.count >= PARALLEL_BODIES and numba.get_num_threads() > 1 and main)
-    plan = (link_chunks, link_groups, limit_chunks, limit_groups, parallel)
-    _PLANS[state] = (key, plan)
-    return plan
+    parallel = bool(parallel and state.bodies.count >= PARALLEL_BODIES)
+    return link_chunks, link_groups, limit_chunks, limit_groups, parallel
 
 
 def _chunks(body: np.ndarray, cross: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

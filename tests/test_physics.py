@@ -261,14 +261,14 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
         return scene
 
     threaded = world()
-    assert constrain.body_plan(threaded.state)[4], "this crowd's passes are split across threads"
+    assert constrain.constraints_of(threaded.state)[4][4], "this crowd's passes are split across threads"
     threaded.step(90)
-    chunks, groups = constrain.body_plan(threaded.state)[:2]
+    chunks, groups = constrain.constraints_of(threaded.state)[4][:2]
     runs = np.diff(groups)
     assert runs.max() >= constrain.PARALLEL_BODIES and (runs == 1).any(), "bodies share runs; the joint waits"
     monkeypatch.setattr(constrain, "PARALLEL_BODIES", 10**9)
     alone = world()
-    assert not constrain.body_plan(alone.state)[4]
+    assert not constrain.constraints_of(alone.state)[4][4]
     alone.step(90)
     assert alone.state_hash() == threaded.state_hash()
     monkeypatch.undo()
