@@ -633,6 +633,17 @@ def solve_constraints(iterations, args):
         relax_once(c)
 
 
+@njit(cache=True)
+def ease_grabs(flags, rest, min_rest, count, step):
+    """Move each grab joint's length towards its standoff (``min_rest``) by at most ``step`` m,
+    from either side: a hand that took hold nearer than its standoff (inside a doll it
+    carries) eases back out of it. (np.clip's arithmetic, without a mask over every link.)"""
+    for k in range(count):
+        if flags[k] & LINK_GRAB:
+            d = min(max(min_rest[k] - rest[k], -step), step)
+            rest[k] = rest[k] + d
+
+
 class ConstrainSystem(System):
     """Projects links, grab joints, joint limits, axles and the ground plane."""
 
@@ -642,11 +653,5 @@ class ConstrainSystem(System):
         """Move grab joints a little towards their standoffs, then relax all constraints
         ``settings.iterations`` times."""
         links = self.scene.state.links
-        n = links.count
-        closing = (links.flags[:n] & LINK_GRAB) != 0
-        if closing.any():
-            # towards the standoff at GRAB_CLOSING m/s, from either side: a hand that took
-            # hold nearer than its standoff (inside a doll it carries) eases back out of it
-            rest, goal = links.rest[:n][closing], links.min_rest[:n][closing]
-            links.rest[:n][closing] = rest + np.clip(goal - rest, -GRAB_CLOSING * dt, GRAB_CLOSING * dt)
+        ease_grabs(links.flags, links.rest, links.min_rest, links.count, GRAB_CLOSING * dt)
         solve_constraints(self.scene.settings.iterations, constraints_of(self.scene.state))
