@@ -328,8 +328,9 @@ class Hug(Behavior):
             surface.append(float(links.radius[touching].max()) if len(touching) else 0.0)
         return esper.component_for_entity(other.entity, Character).index, tuple(surface), torso
 
-    def _pack(self, key: tuple, close: list) -> dict | None:
-        """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change)."""
+    def _pack(self, key: tuple, close: list) -> tuple[dict, list]:
+        """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change),
+        and the goals packed: those whose partner has gone have failed and are left out."""
         packed = self.__dict__.get("_packed")
         if packed is None or packed["key"][1:] != key[1:]:
             packed = self._packed = {"key": (), "setups": {}}
@@ -340,9 +341,13 @@ class Hug(Behavior):
         for row, entity, goal in close:
             if goal.id not in setups:
                 setup = self._setup(row, entity, goal)
-                if setup is None:
-                    return None  # a goal ended: pack the rest next step
-                setups[goal.id] = setup
+                if setup is not None:
+                    setups[goal.id] = setup
+        if len(setups) < len(close):
+            close = [c for c in close if c[2].id in setups]
+            key = (tuple(goal.id for _, _, goal in close), *key[1:])
+            if not close:
+                return packed, close
         chosen = [setups[goal.id] for _, _, goal in close]
         counts = np.array([len(s[2]) for s in chosen], dtype=np.int64)
         packed.update(
@@ -355,7 +360,7 @@ class Hug(Behavior):
             gap_count=counts,
             duration=np.array([goal.params["duration"] for _, _, goal in close], dtype=np.float64),
         )
-        return packed
+        return packed, close
 
     def _wrap_and_hold(self, close: list, dt: float) -> None:
         scene = self.scene
@@ -364,8 +369,8 @@ class Hug(Behavior):
         key = (tuple(goal.id for _, _, goal in close), state.version, id(state))
         packed = self.__dict__.get("_packed")
         if packed is None or packed["key"] != key:
-            packed = self._pack(key, close)
-            if packed is None:
+            packed, close = self._pack(key, close)
+            if not close:
                 return
         crows, partners = packed["crows"], packed["partners"]
         ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head

@@ -217,3 +217,23 @@ def test_a_snapshot_mid_hug_resumes_the_same_world():
             scene.step(90)
             copy_.step(90)
             assert copy_.state_hash() == scene.state_hash()
+
+
+def test_a_partner_removed_mid_hug_fails_that_hug_and_the_others_hold_on():
+    from twig_ecs.systems.hug import hands_on_back
+
+    with hugging_pairs() as scene:
+        goals = [scene.entity(f"h{k}").hug(f"p{k}", duration=30.0) for k in range(len(HUG_PAIRS))]
+        for _ in range(12 * 60):
+            scene.step()
+            if all(g.memory.get("phase") == "hold" for g in goals):
+                break
+        assert all(g.memory.get("phase") == "hold" for g in goals)
+        scene.remove("p1")
+        held = []
+        for _ in range(30):
+            scene.step()
+            held.append([hands_on_back(scene.entity(f"h{k}"), scene.entity(f"p{k}")) for k in (0, 2, 4)])
+        assert goals[1].status == "failed" and "removed" in goals[1].reason
+        assert [g.status for k, g in enumerate(goals) if k != 1] == ["active"] * (len(goals) - 1)
+        assert all(min(counts) >= 1 for counts in held), "the other huggers kept their hands on every step"
