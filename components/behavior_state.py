@@ -61,6 +61,7 @@ class Kicking:
     kicked_at: float = -1e9
     chosen_at: float = 0.0  # s it chose ``aim_at``
     kick_ends: float = -1e9  # s the swinging foot lands
+    foot: str = ""  # the foot that kicked last ('l_foot' or 'r_foot')
     speed_before: float = 0.0  # m/s of the toy before the kick
     counted: bool = True  # has the last kick been judged (touched or missed)?
 

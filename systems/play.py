@@ -30,6 +30,7 @@ FOOT_SPEED = 5.5  # m/s (at 1.75 m tall) of the swinging foot along the ground
 LIFT = 0.12  # m (at 1.75 m tall) above the toy's centre where the arc ends: the foot rises into it
 SLOW = 0.6  # m/s: the last steps up to the toy
 SETTLE = 0.25  # s after a kick before lining up again
+LAND_WAIT = 1.0  # s after a kick at most that it waits for the kicking foot to come down
 ROLLING = 1.5  # m/s: a toy rolling faster than this is chased, not kicked
 ARRIVED = 1.2  # m: a toy this near the place it was sent to gets a new one
 YARD_MARGIN = 2.5  # m inside the fence that a kick aims for
@@ -37,6 +38,8 @@ DECK_MARGIN = 2.0  # m beyond a turning deck's rim that a kick aims for (a ball 
 DECK_PATH = 0.6  # m beyond a deck's rim that a kick's straight path keeps
 DECK_CLEAR = 0.5  # m (at 1.75 m tall) beyond a deck's rim where the kicker stands: its legs clear the rim
 TRIES = 8  # places drawn for the toy before taking the one furthest from the decks
+KICK_CONE = 0.7  # cos of the largest angle between the body's facing and a kick's swing (45 deg)
+TURN_PACE = 0.3  # m/s (at 1.75 m tall) of the steps that turn the body to a toy beside it
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
 
 
@@ -165,8 +168,11 @@ class Play(Behavior):
             if speed > game.speed_before + 0.3:  # the foot met it: it went off faster
                 playful.touches += 1
         character.look_at(playful.toy)
-        if now < game.kick_ends + SETTLE:
-            character.stop()  # the kick is in flight: stand on the other foot
+        landing = game.foot and now < game.kick_ends + LAND_WAIT and not character.is_locked(game.foot)
+        if now < game.kick_ends + SETTLE or landing:
+            # the kick is in flight: stand on the other foot until the kicking one is down
+            # (running after the toy with it still up splits the legs)
+            character.stop()
             return
         aim = _flat_unit(game.aim_at - ball)
         left = np.array([aim[2], 0.0, -aim[0]])  # the body's left when facing along the aim
@@ -252,8 +258,13 @@ class Play(Behavior):
         if not character.scene.state.nodes.flags[character._row(other)] & NODE_LOCKED:
             character.stop()  # wait for the standing foot to plant
             return
-        # the arc ends beyond the toy, on the aim line
+        # the arc ends beyond the toy, on the aim line - but only a swing in front of the body:
+        # a foot swung across or behind it spins the child round on its standing foot, so a
+        # toy off to the side of the kick is turned to first (slow steps towards it)
         end = ball + aim * THROUGH * scale
+        if float(_flat_unit(end - start) @ character.facing) < KICK_CONE:
+            character.walk(_flat_unit(ball - character.position) * TURN_PACE * scale)
+            return
         # and above its centre: the foot meets it rising, under the centre, and lofts it
         # (a ball rolling on the ground soon stops)
         end[1] = ball[1] + LIFT * scale
@@ -262,7 +273,7 @@ class Play(Behavior):
         character.stop()
         launch_kick(character, foot, end, duration)
         now = character.scene.time
-        game.kicked_at, game.kick_ends = now, now + duration
+        game.kicked_at, game.kick_ends, game.foot = now, now + duration, foot
         game.speed_before, game.counted = speed, False
 
     def stop(self, character, goal) -> None:

@@ -407,3 +407,36 @@ def test_a_doll_cannot_hurt_the_child_holding_it_but_it_can_once_let_go(tmp_path
     doll.translate(tuple((child.position + np.array([0.6, 0.0, 0.0]) - doll.position) * np.array([1, 0, 1])))
     scene.run(0.1)
     assert fling_doll_at_child() > 0.0, "the same doll thrown at it by then does"
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_kick_swings_in_front_of_the_body(tmp_path, scenes, monkeypatch, seed):
+    """A 1.05 m child playing alone for a minute: every kick's swing is within 45 degrees of where its
+    body faces (one swung across or behind the body spins it on its standing foot: 37-47 degree
+    folds in the schoolyard)."""
+    import twig_ecs.systems.play as play
+
+    scene = _scene(
+        tmp_path,
+        scenes,
+        "  - {name: kid, body: humanoid, height: 1.05, character: true,\n"
+        "     behaviors: [{use: play, toy: ball, joy: 0.5, speed: 1.6}]}\n"
+        "  - {name: ball, body: ball, position: [1.0, 0, 2.0], damping: {air: 0.002, ground: 0.012}}\n",
+        seed=seed,
+    )
+    kid = scene.character_handle(scene.entity("kid").entity)
+    swings, launch = [], play.launch_kick
+
+    def watched(character, foot, end, duration):
+        swing = (np.asarray(end) - character.node(foot)) * np.array([1.0, 0.0, 1.0])
+        swings.append(float(character.facing @ swing) / float(np.linalg.norm(swing)))
+        return launch(character, foot, end, duration)
+
+    monkeypatch.setattr(play, "launch_kick", watched)
+    pitch = 0.0
+    for _ in range(60 * 60):
+        scene.step()
+        pitch = max(pitch, kid.torso_pitch)
+    assert len(swings) >= 8, "it kicks again and again"
+    assert min(swings) >= 0.69, "no kick swings more than 45 degrees off the body's facing"
+    assert pitch < 30.0
