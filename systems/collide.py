@@ -452,6 +452,17 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
     return worst
 
 
+@njit(cache=True, inline="always")
+def segment_gap2(pos, a, b, c, d):
+    """Squared distance between the closest points of segments ``a``-``b`` and ``c``-``d`` (node rows)."""
+    s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
+    dist2 = 0.0
+    for q in range(3):
+        e = pos[a, q] + s * (pos[b, q] - pos[a, q]) - pos[c, q] - t * (pos[d, q] - pos[c, q])
+        dist2 += e * e
+    return dist2
+
+
 @njit(cache=True)
 def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
     """The candidate pairs (first ``n_pairs`` of ``pairs``, in order) whose capsules are
@@ -463,14 +474,8 @@ def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
     for k in range(n_pairs):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
-        s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
-        dist2 = 0.0
-        for q in range(3):
-            e = pos[a, q] + s * (pos[b, q] - pos[a, q]) - pos[c, q] - t * (pos[d, q] - pos[c, q])
-            dist2 += e * e
         reach = col_r[i] + col_r[j] + margin
-        if dist2 < reach * reach:
+        if segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach:
             near[n, 0] = i
             near[n, 1] = j
             n += 1
@@ -491,14 +496,21 @@ def moved_since(pos, anchor, count, limit):
 
 
 @njit(cache=True)
-def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor, record, dt):
-    """:func:`resolve_contacts` over the ``near`` pairs (picked from the candidates ``pairs``
-    by :func:`near_pairs` where the nodes stood at ``anchor``), picked again first if any node has
-    moved half the margin since: then no pair left out can have closed its gap, and the pass
-    does exactly what one over every candidate would. Returns the near pairs it used."""
+def still_near(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor):
+    """The ``near`` pairs (picked from the candidates ``pairs`` by :func:`near_pairs` where the
+    nodes stood at ``anchor``), picked again if any node has moved half the margin since: then
+    no pair left out can have closed its gap."""
     if n_near < n_pairs and moved_since(nodes.pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
         near, n_near = near_pairs(nodes.pos, cols.a, cols.b, cols.radius, pairs, n_pairs, CONTACT_MARGIN)
         anchor[: nodes.count] = nodes.pos[: nodes.count]
+    return near, n_near
+
+
+@njit(cache=True)
+def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor, record, dt):
+    """:func:`resolve_contacts` over the pairs :func:`still_near`: it does exactly what a pass
+    over every candidate would. Returns the near pairs it used."""
+    near, n_near = still_near(nodes, cols, pairs, n_pairs, near, n_near, anchor)
     resolve_contacts(nodes, cols, near, n_near, record, dt)
     return near, n_near
 
@@ -542,8 +554,7 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):
         near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
         settle_shape(nodes, c.links, held, SETTLE_PASSES)
-    if n_near < n_pairs and moved_since(pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
-        near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
+    near, n_near = still_near(nodes, cols, pairs, n_pairs, near, n_near, anchor)
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_near):
@@ -551,17 +562,7 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
         j = near[k, 1]
         if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
             continue  # two fixed things (fence panels meeting at a post) overlap by design
-        s, t = closest_segment_params(pos[col_a[i]], pos[col_b[i]], pos[col_a[j]], pos[col_b[j]])
-        dx = 0.0
-        for q in range(3):
-            e = (
-                pos[col_a[i], q]
-                + s * (pos[col_b[i], q] - pos[col_a[i], q])
-                - pos[col_a[j], q]
-                - t * (pos[col_b[j], q] - pos[col_a[j], q])
-            )
-            dx += e * e
-        depth = col_r[i] + col_r[j] - math.sqrt(dx)
+        depth = col_r[i] + col_r[j] - math.sqrt(segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]))
         if depth > worst:
             worst = depth
     return worst

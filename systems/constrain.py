@@ -522,6 +522,15 @@ def project_limits(nodes, limits):
     project_limit_rows(nodes, limits, 0, limits.count)
 
 
+@njit(cache=True, inline="always")
+def _project_chunk(nodes, links, limits, chunks, q, of_links):
+    """Chunk ``q`` of a :class:`BodyPlan`: its link (``of_links``) or limit rows."""
+    if of_links:
+        project_link_rows(nodes, links, chunks[q, 0], chunks[q, 1])
+    else:
+        project_limit_rows(nodes, limits, chunks[q, 0], chunks[q, 1])
+
+
 @njit(cache=True, parallel=True)
 def project_by_body(nodes, links, limits, chunks, groups, of_links):
     """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
@@ -529,16 +538,10 @@ def project_by_body(nodes, links, limits, chunks, groups, of_links):
     for g in range(len(groups) - 1):
         lo, hi = groups[g], groups[g + 1]
         if hi - lo == 1:  # (a grab joint, or a lone body: no threads to start)
-            if of_links:
-                project_link_rows(nodes, links, chunks[lo, 0], chunks[lo, 1])
-            else:
-                project_limit_rows(nodes, limits, chunks[lo, 0], chunks[lo, 1])
+            _project_chunk(nodes, links, limits, chunks, lo, of_links)
             continue
         for q in prange(lo, hi):
-            if of_links:
-                project_link_rows(nodes, links, chunks[q, 0], chunks[q, 1])
-            else:
-                project_limit_rows(nodes, limits, chunks[q, 0], chunks[q, 1])
+            _project_chunk(nodes, links, limits, chunks, q, of_links)
 
 
 @njit(cache=True)

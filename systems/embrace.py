@@ -175,16 +175,16 @@ class Embrace(Behavior):
 
     def setup(self) -> None:
         """Who hugs whom, looked up again when the hug goals or the store's rows change."""
-        self.hugged_by: dict[int, tuple[int, str]] = {}  # hugged entity: (hugger entity, hug phase)
+        # hugged entity: (hugger entity, hug phase, hugger's character row), this step
+        self.hugged_by: dict[int, tuple[int, str, int]] = {}
         self._pairs_key: tuple = ()
         # per pair: hugged entity, its mind, hugged row, hugger entity, hugger row, hug goal
         self._pairs: list[tuple] = []
-        self._rows_of: dict[int, int] = {}  # hugged entity: its hugger's character row
 
     def __getstate__(self) -> dict:
         """Pickle (snapshots) without the pair cache: it is rebuilt from the goals."""
         state = self.__dict__.copy()
-        state["_pairs_key"], state["_pairs"], state["_rows_of"] = (), [], {}
+        state["_pairs_key"], state["_pairs"] = (), []
         return state
 
     def _refresh_pairs(self) -> None:
@@ -205,13 +205,12 @@ class Embrace(Behavior):
             mind = esper.component_for_entity(hugged, Mind)
             pairs.append((hugged, mind, me.index, hugger, them.index, goal))
         self._pairs, self._pairs_key = pairs, key
-        self._rows_of = {p[0]: p[4] for p in pairs}
 
     def process(self, dt: float) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
         self._refresh_pairs()
         pairs = self._pairs
-        self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach")) for p in pairs}
+        self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs}
         if not pairs:
             return
         pos, nodes = self.scene.state.nodes.pos, self.scene.state.characters.nodes
@@ -235,7 +234,7 @@ class Embrace(Behavior):
         scene = self.scene
         state = scene.state
         ch = state.characters
-        huggers = np.array([self._rows_of[e] for e in entities], dtype=np.int64)
+        huggers = np.array([self.hugged_by[e][2] for e in entities], dtype=np.int64)
         crows = np.array(rows, dtype=np.int64)
         phase = np.array([PHASES.get(self.hugged_by[e][1], 0) for e in entities], dtype=np.int64)
         ch.gaze_node[crows] = ch.nodes[huggers, HEAD]  # look at the hugger's head

@@ -48,7 +48,7 @@ from twig_ecs.kernelmath import (
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.approach import steer_to
-from twig_ecs.systems.collide import closest_segment_params
+from twig_ecs.systems.collide import segment_gap2
 from twig_ecs.systems.embrace import (  # (importing it registers the partner's answer to a hug)
     HOLD,
     PHASES,
@@ -121,14 +121,8 @@ def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
     for j in rows:
         rj = link_radius[j]
         for i in range(2):
-            a, b = pos[nodes[c, PELVIS + i]], pos[nodes[c, SPINE + i]]
             ri = (0.12 if i == 0 else 0.13) * s
-            u, v = closest_segment_params(a, b, pos[link_a[j]], pos[link_b[j]])
-            p2, q2 = pos[link_a[j]], pos[link_b[j]]
-            d2 = 0.0
-            for q in range(3):
-                e = (a[q] + u * (b[q] - a[q])) - (p2[q] + v * (q2[q] - p2[q]))
-                d2 += e * e
+            d2 = segment_gap2(pos, nodes[c, PELVIS + i], nodes[c, SPINE + i], link_a[j], link_b[j])
             best = min(best, math.sqrt(d2) - ri - rj)
     return best
 
