@@ -55,7 +55,8 @@ from twig_ecs.version import __version__
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 2  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+FORMAT_VERSION = 3  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+# 3: hands gliding in a hug or an embrace are a character-table column (hand_aim), not a HandAims component
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
