@@ -293,7 +293,7 @@ class _FirstCall:
 class InterimKernels:
     """Lets a scene step while its kernels compile: plain Python until each one is cached.
 
-    A first run's :class:`KernelBuild` takes 10-20 s. Meanwhile every reference to one of
+    A first run's :class:`KernelBuild` takes about 20 s. Meanwhile every reference to one of
     our kernels in a loaded ``twig_ecs`` module is pointed at the kernel's Python function
     (what ``NUMBA_DISABLE_JIT=1`` runs): nothing compiles in this process and the scene
     steps at once, in slow motion (the schoolyard: about 60 ms a step instead of 2).
