@@ -7,7 +7,8 @@ with a velocity term standing in for node damping:
 - standing: pelvis at standing height (y) and over the feet midpoint (x/z), or at the
   walk velocity while walking; sitting: pelvis onto the seat; rising ("sitting up"):
   shoulders over the feet while the pelvis climbs back to standing height;
-- upright: the shoulder centre over the pelvis, leaning a little into the walk;
+- upright: the shoulder centre over the pelvis, leaning a little into the walk; a torso
+  tipped past the most it leans is caught the harder the further it tips (a righting reflex);
 - yaw: opposite forces on the two sides of the pelvis turn it to the walk direction,
   and on the two shoulders turn them to the gaze, at most 85 degrees from the pelvis.
 
@@ -61,6 +62,10 @@ WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no l
 HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_PITCH = math.radians(25.0)  # the most the upright control leans the torso from the vertical
+# a righting reflex: the upright gain grows by RIGHTING times itself over the first 10 degrees
+# (in sine) a torso tips past MAX_PITCH, and on at that rate beyond
+RIGHTING = 8.0
+RIGHTING_SPAN = math.sin(MAX_PITCH + math.radians(10.0)) - math.sin(MAX_PITCH)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
@@ -271,8 +276,15 @@ def control_posture(args, n_chars, gravity, dt):
             tx = pos[p, 0] + 0.5 * torso * hfx
             tz = pos[p, 2] + 0.5 * torso * hfz
             uy = clamp(UPRIGHT_GAIN * (pos[p, 1] + torso - pos[n, 1]) - UPRIGHT_DAMP * vny, -MAX_ACC, MAX_ACC)
-        ux = clamp(UPRIGHT_GAIN * (tx - pos[n, 0]) - UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
-        uz = clamp(UPRIGHT_GAIN * (tz - pos[n, 2]) - UPRIGHT_DAMP * vnz, -MAX_ACC, MAX_ACC)
+        # a torso tipped past the most it ever leans is being thrown over (legs dragged from
+        # under it in a sharp turn, a kick's swing, a run's landing): a person catches that,
+        # bending back at the hip, the harder the further it tips. The stiffer spring keeps
+        # its damping ratio. Leans up to MAX_PITCH, and the walk, are as before
+        tip = max(0.0, bent / (torso + 1e-9) - math.sin(MAX_PITCH))
+        k_up = 1.0 + RIGHTING * tip / RIGHTING_SPAN
+        d_up = math.sqrt(k_up)
+        ux = clamp(k_up * UPRIGHT_GAIN * (tx - pos[n, 0]) - d_up * UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
+        uz = clamp(k_up * UPRIGHT_GAIN * (tz - pos[n, 2]) - d_up * UPRIGHT_DAMP * vnz, -MAX_ACC, MAX_ACC)
         m_up = mass[n] + mass[nd[L_SHOULDER]] + mass[nd[R_SHOULDER]] + mass[nd[HEAD]]
         m_low = mass[p] + mass[nd[L_HIP]] + mass[nd[R_HIP]]
         for role in (NECK, L_SHOULDER, R_SHOULDER, HEAD):

@@ -117,7 +117,8 @@ def test_a_rider_runs_round_clear_of_the_rim_upright_and_steps_back_out_when_it_
         "  - {name: merry_go_round, body: merry_go_round, position: [-3, 0, 3]}\n",
     )
     kid = scene.character_handle(scene.entity("kid").entity)
-    centre = scene.entity("merry_go_round").node("hub")
+    deck = scene.entity("merry_go_round")
+    centre = deck.node("hub")
     rim = 1.5  # m from the axle to the deck's rim nodes
 
     def out(node: str) -> float:
@@ -126,6 +127,7 @@ def test_a_rider_runs_round_clear_of_the_rim_upright_and_steps_back_out_when_it_
     scene.step(0)
     nearest_foot, pitch, after_letting_go = np.inf, 0.0, []
     held_until, took_hold, first_strides = None, None, []  # per ride: pelvis speeds in its first 0.5 s
+    deck_paces = []  # per ride: how fast the deck moves where the kid runs, as it takes hold
     for _ in range(int(20.0 / scene.dt)):
         scene.step()
         pitch = max(pitch, float(kid.torso_pitch))
@@ -133,6 +135,8 @@ def test_a_rider_runs_round_clear_of_the_rim_upright_and_steps_back_out_when_it_
             if held_until is None:
                 took_hold = scene.time
                 first_strides.append([])
+                spin = max(np.linalg.norm(deck.node_velocity(f"rim{k}")) for k in range(8)) / rim  # rad/s
+                deck_paces.append(spin * out("pelvis"))
             if scene.time - took_hold <= 0.5:  # pushing the deck off
                 first_strides[-1].append(float(np.hypot(*kid.node_velocity("pelvis")[[0, 2]])))
             held_until = scene.time
@@ -146,9 +150,11 @@ def test_a_rider_runs_round_clear_of_the_rim_upright_and_steps_back_out_when_it_
     assert pitch <= 40.0, "no fall: upright but for a lean into the bar"
     assert min(after_letting_go) > rim + 0.2, "it steps back out from the turning rim, clear of it"
     # it pushes the heavy deck up to speed, a little ahead of the bar: off at a sprint from a
-    # standstill, the held bar hauled it back over (0.4 to 2.6 m/s within 0.5 s before)
-    gain = max(max(speeds) - speeds[0] for speeds in first_strides)
-    assert gain <= 0.6, f"it speeds up by {gain:.1f} m/s as it sets off: a sprint, not a push"
+    # standstill, the held bar hauled it back over (0.4 to 2.6 m/s within 0.5 s before). Taking
+    # hold of a deck still turning, it runs at the deck's pace there, plus that push
+    rides = zip(first_strides, deck_paces, strict=True)
+    gain = max(max(speeds) - max(speeds[0], deck) for speeds, deck in rides)
+    assert gain <= 0.6, f"it ran {gain:.1f} m/s faster than it or the deck went as it set off: a sprint"
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])

@@ -9,9 +9,13 @@ from twig_ecs import Scene, walklab
 from twig_ecs.events import Pain
 from twig_ecs.torso import TorsoRecorder
 
-#: Frames (1/60 s) a child's torso may spend beyond 35 degrees in five minutes of the schoolyard
-#: (seed 0 now: small child 4, big child 24; session 7's main: 10 and 61)
-FOLD_FRAMES = 60
+#: Frames (1/60 s) a child's torso may spend beyond 35 degrees in five minutes of the schoolyard,
+#: and the most it may tip. Seed 0 now, on session 12's machine: none (28 and 32 degrees at most;
+#: seeds 0-7 none, 32 at most). Other machines compile the kernels for their own CPU, and the
+#: chaotic story amplifies the last bit, so a few frames' slack: before the righting reflex seeds
+#: 0-7 had 79 frames (66 degrees at most), session 7's main 10 and 61 frames on seed 0 alone
+FOLD_FRAMES = 5
+MOST_PITCH = 40.0
 
 
 def test_walk_lab_measures_a_straight_walk_through_the_public_api():
@@ -123,6 +127,26 @@ def test_a_u_turn_at_1_2_m_s_stays_upright(height):
     assert walklab.measure_uturn(height) <= 30.0
 
 
+def test_a_torso_thrown_over_in_a_running_turn_is_caught(scenes):
+    # a 1.35 m child running 2 m/s told to turn back 135 degrees: its legs swing out from
+    # under it in the flight and the torso is thrown forwards (46 degrees without the
+    # righting reflex, an arm flung out; 36 with it, upright again 0.2 s later)
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    child = scene.spawn("humanoid", name="c", height=1.35, character=True)
+    child.walk((0.0, 0.0, 2.0))
+    scene.run(2.0)
+    turn = np.radians(-135.0)
+    child.walk((2.0 * np.sin(turn), 0.0, 2.0 * np.cos(turn)))
+    pitch = []
+    for _ in range(120):
+        scene.step()
+        pitch.append(float(child.torso_pitch))
+    worst = int(np.argmax(pitch))
+    assert max(pitch) <= 38.0, f"the torso tipped {max(pitch):.0f} degrees"
+    assert max(pitch[worst + 12 :]) <= 25.0, "and is upright again within 0.2 s"
+
+
 def test_past_a_walks_limit_a_child_runs_with_both_feet_off_the_ground_capped_by_its_size(scenes):
     scene = Scene.load("empty")
     scenes.append(scene)
@@ -216,11 +240,11 @@ def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes)
     # Session 10, on its machine (other digits for the same code): 31 (0) and 50 (35) before the
     # hug's lean eased off, 47 (11) and 50 (26) after, 38 (10) and 30 (0) once the rider pushes the
     # merry-go-round off instead of sprinting, 37 (9) and 30 (0) with its run-out after a ride
-    small, big = torso["small_child"], torso["big_child"]
-    assert small["frames_over"] <= FOLD_FRAMES and small["max_deg"] <= 50.0, small
-    # the big child's largest pitch is not asserted: on other seeds it still falls now and then
-    # (docs/locomotion.md, "Schoolyard")
-    assert big["frames_over"] <= FOLD_FRAMES, big
+    # Session 12: 36 (5) and 38 (11) before the righting reflex (systems/posture.py), 28 (0) and
+    # 32 (0) with it
+    for child in ("small_child", "big_child"):
+        figures = torso[child]
+        assert figures["frames_over"] <= FOLD_FRAMES and figures["max_deg"] <= MOST_PITCH, (child, figures)
 
 
 def _planted_heights(child) -> list[float]:
