@@ -17,6 +17,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from twig_ecs.kernelmath import clamp
 from twig_ecs.store import (
     LINK_GRAB,
     LINK_OFF,
@@ -643,8 +644,7 @@ def ease_grabs(flags, rest, min_rest, count, step):
     carries) eases back out of it. (np.clip's arithmetic, without a mask over every link.)"""
     for k in range(count):
         if flags[k] & LINK_GRAB:
-            d = min(max(min_rest[k] - rest[k], -step), step)
-            rest[k] = rest[k] + d
+            rest[k] = rest[k] + clamp(min_rest[k] - rest[k], -step, step)
 
 
 class ConstrainSystem(System):
