@@ -25,7 +25,20 @@ from numba import njit
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
 from twig_ecs.components import Character, GrabJoint
-from twig_ecs.kernelmath import GAZE_NODE, HEAD, L_HAND, L_HIP, NECK, PELVIS, R_HIP, REACH, SIT, SPINE
+from twig_ecs.kernelmath import (
+    GAZE_NODE,
+    HEAD,
+    L_HAND,
+    L_HIP,
+    NECK,
+    PELVIS,
+    R_HIP,
+    REACH,
+    SIT,
+    SPINE,
+    clamp,
+    forward_xz,
+)
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -95,13 +108,8 @@ def embrace_arms(pos, nodes, scale, mode, walk, crouch, lean, hand_aim, arm_poin
         tx, tz = tx / norm, tz / norm
         if phase[k] != WRAP and phase[k] != HOLD:
             # turn the whole body to it: a few slow steps on the spot, facing it
-            lx = pos[nd[L_HIP], 0] - pos[nd[R_HIP], 0]
-            lz = pos[nd[L_HIP], 2] - pos[nd[R_HIP], 2]
-            fx, fz = -lz, lx
-            fn = math.sqrt(fx * fx + fz * fz)
-            if fn == 0.0:
-                fn = 1.0
-            off = math.acos(min(1.0, max(-1.0, (fx / fn) * tx + (fz / fn) * tz)))
+            fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
+            off = math.acos(clamp(fx * tx + fz * tz, -1.0, 1.0))
             if off > FACED:
                 walk[c, 0], walk[c, 1], walk[c, 2] = tx * TURN_PACE * s, 0.0, tz * TURN_PACE * s
                 if mode[c] == SIT:

@@ -44,6 +44,7 @@ from twig_ecs.kernelmath import (
     R_SHOULDER,
     SIT,
     SPINE,
+    clamp,
 )
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
@@ -170,7 +171,7 @@ def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, h
             uz = pos[nd[NECK], 2] - pos[nd[PELVIS], 2]
             uy = pos[nd[NECK], 1] - pos[nd[PELVIS], 1]
             pitch = math.degrees(math.atan2(math.sqrt(ux * ux + uz * uz), uy))
-            share = min(1.0, max(0.0, (LEAN_MOST - pitch) / LEAN_FADE))
+            share = clamp((LEAN_MOST - pitch) / LEAN_FADE, 0.0, 1.0)
             lean[c, 0], lean[c, 1], lean[c, 2] = tx * LEAN_IN * s * share, 0.0, tz * LEAN_IN * s * share
         # round the partner's torso node nearest the hugger's shoulder height, less a little
         # (level_of): a child round a grown-up's hips, equals round the upper back
