@@ -65,6 +65,8 @@ MAX_PITCH = math.radians(25.0)  # the most the upright control leans the torso f
 # a righting reflex: the upright gain grows by RIGHTING times itself over the first 10 degrees
 # (in sine) a torso tips past MAX_PITCH, and on at that rate beyond
 RIGHTING = 8.0
+RIGHTING_MOST = 16.0  # times the upright gain at most (from 45 degrees): a stiffer spring than this
+# would be near the edge of what a 1/60 s step integrates stably
 RIGHTING_SPAN = math.sin(MAX_PITCH + math.radians(10.0)) - math.sin(MAX_PITCH)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
@@ -281,7 +283,7 @@ def control_posture(args, n_chars, gravity, dt):
         # bending back at the hip, the harder the further it tips. The stiffer spring keeps
         # its damping ratio. Leans up to MAX_PITCH, and the walk, are as before
         tip = max(0.0, bent / (torso + 1e-9) - math.sin(MAX_PITCH))
-        k_up = 1.0 + RIGHTING * tip / RIGHTING_SPAN
+        k_up = min(1.0 + RIGHTING * tip / RIGHTING_SPAN, RIGHTING_MOST)
         d_up = math.sqrt(k_up)
         ux = clamp(k_up * UPRIGHT_GAIN * (tx - pos[n, 0]) - d_up * UPRIGHT_DAMP * vnx, -MAX_ACC, MAX_ACC)
         uz = clamp(k_up * UPRIGHT_GAIN * (tz - pos[n, 2]) - d_up * UPRIGHT_DAMP * vnz, -MAX_ACC, MAX_ACC)
