@@ -57,8 +57,8 @@ HAND_SPEED = 0.5  # m/s: how fast the point a hand reaches for moves (a hand tha
 #: A hug's phases as the kernels number them (``goal.memory["phase"]``).
 PHASES = {"approach": 0, "wrap": 1, "hold": 2}
 WRAP, HOLD = PHASES["wrap"], PHASES["hold"]
-#: What an embrace kernel row asks of the Python after it (rare, per character): stand up
-#: (it walked while sitting) or stoop to ``stoop_at`` (a hugger bigger than itself).
+#: What a hug or embrace kernel row asks of the Python after it (bits; rare, per character):
+#: stand up (it walked while sitting) or stoop to ``stoop_at`` (someone smaller to hold).
 STAND_UP, STOOP = 1, 2
 
 

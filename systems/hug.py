@@ -5,7 +5,7 @@ Goal-driven (``character.hug(target, duration=2)``). Phases, kept in the goal's 
 (close in at a creep while each hand - a free one, or one holding a small thing such as
 a doll, which goes round holding it - glides round the target's torso to a point on its
 back), ``hold`` (for ``duration`` seconds, standing in touch; a small hugger leans into a
-grown-up's legs), then the arms drop and it is done.
+grown-up's legs, a grown-up stoops to a small child), then the arms drop and it is done.
 
 The arms are not joined to the target: the hands are pulled to their places on its back
 and the bodies keep colliding all the while, so an arm wraps round the torso's surface
@@ -54,6 +54,7 @@ from twig_ecs.systems.embrace import (  # (importing it registers the partner's 
     HOLD,
     PHASES,
     STAND_UP,
+    STOOP,
     WRAP,
     glide_hand,
     lower_hands,
@@ -68,6 +69,7 @@ LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big 
 LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
 LEAN_FADE = 10.0  # ... from full at this many degrees less
 BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
+SMALL = 0.8  # a partner this many times the hugger's size is small: the hugger stoops to it
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
 DOCK = 0.45  # m/s: docking pace - people slow down before they touch
 HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
@@ -132,14 +134,15 @@ def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
 @njit(cache=True)
 def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, hand_aim, arm_point, arm_node,
              arm_mode, crows, partners, phase, surface, gap_links, gap_start, gap_count, rounds, dt,
-             on_back, asks):
+             on_back, stoop_at, asks):
     """Move every hugger whose arms are going round (``phase[k]`` WRAP) or holding (HOLD) at once:
     row k is character ``crows[k]`` hugging character ``partners[k]``. Closes in at a creep
     until the torsos touch, then stands (a small hugger leans into a big partner); each hand
     glides round the partner's torso to its point on the back (:func:`back_points`'s figures:
     ``surface[k]`` the partner's thickest capsule at its neck, spine and pelvis, ``gap_links``
     from ``gap_start[k]``, ``gap_count[k]`` long, its capsules the torso stops at). Writes
-    ``on_back[k]`` (hands on the back, while wrapping) and ``asks[k]`` (STAND_UP: it was sitting)."""
+    ``on_back[k]`` (hands on the back, while wrapping) and ``asks[k]``, bits: STAND_UP (it was
+    sitting), STOOP (to ``stoop_at[k]``: a small partner, its back below the arms' reach)."""
     step = HAND_SPEED * dt
     for k in range(len(crows)):
         c, o = crows[k], partners[k]
@@ -197,6 +200,12 @@ def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, h
             hz = pos[od[L_HIP], 2] - pos[od[R_HIP], 2]
             radius = max(radius, 0.5 * math.sqrt(hx * hx + hy * hy + hz * hz) + 0.08 * other + clear)
         y = min(cy, pos[nd[NECK], 1])  # no higher than the hugger's shoulders
+        if other < SMALL * s:
+            # a child in a grown-up's arms: its upper back is below where the arms reach from
+            # standing (an adult's hands at a 1.05 m child's neck are 0.6 m below its
+            # shoulders), so the grown-up bends and sinks to it (CharacterHandle.stoop, after)
+            stoop_at[k, 0], stoop_at[k, 1], stoop_at[k, 2] = cx, y, cz
+            asks[k] |= STOOP
         # as far round towards the spine as the arms will go (a straight line from the
         # shoulder, less some for the curve round the torso), the same way round on both
         # sides, from square shoulders: a hand that got further would pull its shoulder
@@ -373,11 +382,12 @@ class Hug(Behavior):
         phase = np.array([PHASES[goal.memory["phase"]] for _, _, goal in close], dtype=np.int64)
         on_back = np.empty(len(close), dtype=np.int64)
         asks = np.empty(len(close), dtype=np.int64)
+        stoop_at = np.empty((len(close), 3))
         links = state.links
         hug_arms(state.nodes.pos, links.a, links.b, links.radius, ch.nodes, ch.scale, ch.mode, ch.walk,
                  ch.lean, ch.hand_aim, ch.arm_point, ch.arm_node, ch.arm_mode, crows, partners, phase,
                  packed["surface"], packed["gap_links"], packed["gap_start"], packed["gap_count"], _ROUNDS,
-                 dt, on_back, asks)  # fmt: skip
+                 dt, on_back, stoop_at, asks)  # fmt: skip
         now = scene.time
         since = np.array([goal.memory["since"] for _, _, goal in close])
         ending = (phase == WRAP) & ((on_back == 2) | (now - since > WRAP_TIME))
@@ -385,8 +395,10 @@ class Hug(Behavior):
         for k in np.flatnonzero(ending | (asks != 0)):
             _, entity, goal = close[k]
             character = scene.character_handle(entity)
-            if asks[k] == STAND_UP:
+            if asks[k] & STAND_UP:
                 character.stand()
+            if asks[k] & STOOP:
+                character.stoop(stoop_at[k].copy())
             if not ending[k]:
                 continue
             if phase[k] == HOLD:
