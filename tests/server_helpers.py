@@ -36,10 +36,12 @@ def running_server(
     window: bool = False,
     timeout: float = 60.0,
     record: str | None = None,
+    trust: bool = False,
 ) -> Iterator[Running]:
     """Serve ``scene`` on 127.0.0.1 (ephemeral ports) in a thread until the block ends.
 
-    ``record``: a replay file to log the applied commands to (as ``twig serve --record``).
+    ``record``: a replay file to log the applied commands to (as ``twig serve --record``);
+    ``trust``: the scene may run its plug-in files (``--trust``).
     """
     ready = threading.Event()
     box: dict = {}
@@ -53,7 +55,7 @@ def running_server(
                 shown = open_window(scene, seed=seed, size=(160, 90), headless=True)
                 loaded = shown.viewer.scene
             else:
-                loaded = Scene.load(scene, seed=seed)
+                loaded = Scene.load(scene, seed=seed, trust=trust)
             try:
                 recorder = None
                 if record is not None:

@@ -275,7 +275,7 @@ def bow_scene(tmp_path) -> Path:
 
 
 def test_a_plug_in_goal_gets_a_handle_method_from_its_schema(scenes, bow_scene):
-    scene = Scene.load(bow_scene)
+    scene = Scene.load(bow_scene, trust=True)
     scenes.append(scene)
     ann = scene.entity("ann")
     assert list(inspect.signature(ann.bow).parameters) == ["duration", "ahead", "on_end"]
@@ -294,7 +294,8 @@ def test_a_plug_in_goal_gets_a_handle_method_from_its_schema(scenes, bow_scene):
 
 
 def test_a_plug_in_goal_is_an_rpc_method_and_a_twig_line_command(bow_scene):
-    with running_server(str(bow_scene), paused=True, twig=True) as srv, Client(port=srv.port) as twig:
+    served = running_server(str(bow_scene), paused=True, twig=True, trust=True)
+    with served as srv, Client(port=srv.port) as twig:
         schemas = {s["name"]: s for s in twig.goal_schemas()}
         assert {"bow", "drag", "hug"} <= set(schemas)
         assert [p["name"] for p in schemas["bow"]["params"]] == ["duration", "ahead"]

@@ -167,17 +167,63 @@ def test_a_damaged_snapshot_gets_a_clear_error(good, mangle, says):
         Scene.restore(mangle(good))
 
 
-def test_a_snapshot_may_not_name_code_outside_twig_numpy_and_esper(good):
+def _crafted(structure, blob: bytes = b"", state_hash: str = "x") -> bytes:
+    """A snapshot around any object graph (worlddata's JSON form), with a right checksum."""
+    text = json.dumps(structure).encode()
+    meta = {"plugins": [], "state_hash": state_hash}
+    return _rebuild(struct.pack(">Q", len(text)) + text + blob, meta=meta)
+
+
+def test_a_snapshot_is_data_and_may_not_name_code(good):
     import os
 
-    evil = pickle.dumps((os.system, ("echo owned",)))
-    with pytest.raises(SnapshotError, match="may not load"):
-        Scene.restore(_rebuild(evil))
-    not_a_scene = pickle.dumps(({"a": 1}, {}))
+    with pytest.raises(SnapshotError, match="unreadable|corrupt"):  # a pickle is no longer read at all
+        Scene.restore(_rebuild(pickle.dumps((os.system, ("echo owned",)))))
+    with pytest.raises(SnapshotError, match="not a class a world may hold"):
+        Scene.restore(_crafted(["o", 0, "posix:system", {}, None]))
     with pytest.raises(SnapshotError, match="does not hold a scene"):
-        Scene.restore(_rebuild(not_a_scene, meta={"plugins": [], "state_hash": "x"}))
-    with pytest.raises(SnapshotError, match="unreadable"):
+        Scene.restore(_crafted(["d", 0, [["a", 1]]]))
+    with pytest.raises(SnapshotError, match="unreadable|corrupt"):
         Scene.restore(_rebuild(b"\x80\x05garbage"))
+
+
+@pytest.mark.parametrize(
+    ("structure", "blob", "says"),
+    [
+        (["a", 0, "|O8", [2], 0], b"\0" * 16, "not a plain number type"),  # object arrays hold pointers
+        (["a", 0, "<f8", [10**7], 0], b"", "outside the array data"),  # a length the blob does not have
+        (["a", 0, "<f8", [-1], 0], b"", "bad array shape"),
+        (["r", 5], b"", "not read yet"),
+        (["l", 0, [["l", 0, []]]], b"", "repeated object id"),
+        (["s", 0, [["l", 1, []]]], b"", "inconsistent"),  # an unhashable set member
+        ("[" * 100_000 + "]" * 100_000, b"", "nested too deeply|unreadable"),
+        (["n", "<i1", 1000], b"", "does not fit"),
+        (["g", 0, {"bit_generator": "PCG64", "state": {"state": "x"}, "seed_seq": None}], b"", "bad state"),
+        (["zz", 0], b"", "unknown tag"),
+    ],
+    ids=[
+        "object-dtype",
+        "huge-shape",
+        "negative-shape",
+        "dangling-ref",
+        "repeated-id",
+        "unhashable",
+        "deep",
+        "overflow",
+        "bad-rng",
+        "unknown-tag",
+    ],  # fmt: skip
+)
+def test_a_hostile_snapshot_structure_gets_a_clear_error(structure, blob, says):
+    data = (
+        _crafted(structure, blob)
+        if not isinstance(structure, str)
+        else _rebuild(
+            struct.pack(">Q", len(structure)) + structure.encode(), meta={"plugins": [], "state_hash": "x"}
+        )
+    )
+    with pytest.raises(SnapshotError, match=says):
+        Scene.restore(data)
 
 
 def test_the_cli_reports_a_bad_snapshot_without_a_traceback(tmp_path, capsys):
@@ -197,12 +243,12 @@ def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_proce
 
     scene_file = Path(__file__).resolve().parent.parent / "examples" / "dance" / "scene.yaml"
     path = tmp_path / "dance.twigsnap"
-    assert main(["run", str(scene_file), "--seconds", "2", "--save", str(path)]) == 0
+    assert main(["run", str(scene_file), "--seconds", "2", "--save", str(path), "--trust"]) == 0
     capsys.readouterr()
     meta = read_meta(path.read_bytes())
     assert [p["module"] for p in meta["plugins"]] == ["twig_plugin_dance"]
     assert meta["plugins"][0]["file"].endswith("dance.py")
-    assert main(["run", str(scene_file), "--seconds", "3", "--report", "json"]) == 0
+    assert main(["run", str(scene_file), "--seconds", "3", "--report", "json", "--trust"]) == 0
     straight = json.loads(capsys.readouterr().out)
     command = [sys.executable, "-m", "twig_ecs", "run", "--load", str(path), "--seconds", "1",
                "--report", "json"]  # fmt: skip
@@ -230,5 +276,5 @@ def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scen
     assert read_meta(scene.snapshot())["plugins"] == [{"module": __name__, "file": __file__}]
     with socket.socket() as sock:
         holding.kept = sock
-        with pytest.raises(SnapshotError, match="cannot snapshot a socket"):
+        with pytest.raises(SnapshotError, match="cannot write a socket.socket: it is not world state"):
             scene.snapshot()

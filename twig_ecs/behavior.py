@@ -320,3 +320,46 @@ def load_class(reference: str, base_dir: str | None = None) -> type:
     except AttributeError:
         names = [n for n in dir(module) if not n.startswith("_")]
         raise TwigError(f"'{module_name}' has no '{class_name}'" + suggest(class_name, names)) from None
+
+
+#: The largest plug-in file :func:`check_class_reference` reads (it is parsed, never run).
+MAX_PLUGIN_FILE = 4 << 20
+
+
+def check_class_reference(reference: str, base_dir: str | None = None) -> None:
+    """Check a ``"file.py:Class"`` or ``"package.module:Class"`` reference without running any code.
+
+    ``twig validate`` runs no plug-in code, trusted or not: a file is read as text and
+    parsed (:mod:`ast`) to see that it defines the class at its top level; a module of
+    twig_ecs is imported (it is this program), any other only looked for. Raises
+    TwigError with the reason.
+    """
+    import ast
+    import importlib.util
+    from pathlib import Path
+
+    module_name, sep, class_name = reference.partition(":")
+    if not sep or not module_name or not class_name:
+        raise TwigError(f"expected 'module:Class' or 'file.py:Class', got '{reference}'")
+    if not module_name.endswith(".py"):
+        if module_name.split(".")[0] == "twig_ecs":
+            load_class(reference)
+        elif importlib.util.find_spec(module_name.split(".")[0]) is None:
+            raise TwigError(f"cannot import '{module_name}': no module named '{module_name.split('.')[0]}'")
+        return
+    path = Path(module_name)
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    if not path.is_file():
+        raise TwigError(f"no such file '{path}'")
+    if path.stat().st_size > MAX_PLUGIN_FILE:
+        raise TwigError(f"'{path}' is larger than {MAX_PLUGIN_FILE >> 20} MiB: not a plug-in file")
+    try:
+        tree = ast.parse(path.read_bytes(), filename=str(path))
+    except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
+        raise TwigError(f"cannot read '{path}': {type(exc).__name__}: {exc}") from None
+    names = [node.name for node in tree.body if isinstance(node, ast.ClassDef)]
+    names += [t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets
+              if isinstance(t, ast.Name)]  # fmt: skip  # Class = other.Class
+    if class_name not in names:
+        raise TwigError(f"'{module_name}' has no '{class_name}'" + suggest(class_name, names))

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 from twig_ecs.argtypes import positive_seconds, seconds_number  # noqa: F401 - seconds_number: old home
 from twig_ecs.errors import TwigError
-from twig_ecs.trust import trusting
+from twig_ecs.trust import checking_only, is_trusted, trusting
 
 
 def _add_scene_args(
@@ -85,8 +85,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
                 lib.template(tname)
                 print(f"ok: {path} (body template '{tname}')")
             else:
-                plan = read_scene(path, library)
-                print(f"ok: {path} (scene '{plan.name}', {len(plan.entities)} entities)")
+                with checking_only():  # validating runs no plug-in code, trusted or not
+                    plan = read_scene(path, library)
+                plugins = [str(spec.where[0].get("use")) for spec in plan.systems if spec.cls is None]
+                trust = "" if is_trusted() else " - it runs only with --trust"
+                note = f"; plug-in code not run: {', '.join(plugins)}{trust}" if plugins else ""
+                print(f"ok: {path} (scene '{plan.name}', {len(plan.entities)} entities{note})")
         except TwigError as exc:
             failures += 1
             for line in str(exc).splitlines():  # every mistake in the file, one a line
@@ -217,7 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("files", nargs="+", metavar="FILE", help="scene or template files (or scene names)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
-    p.add_argument("--trust", action="store_true", help="allow plug-ins from outside the scene's folder")
+    p.add_argument("--trust", action="store_true",
+                   help="accept modules only --trust lets run (validate runs no plug-in code)")  # fmt: skip
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("run", help="run a scene headless and report on it")

@@ -9,6 +9,7 @@ joints and removals is in :mod:`twig_ecs.grabs`; the fixed step in :mod:`twig_ec
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import itertools
 import time
@@ -38,6 +39,7 @@ from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
 from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
+from twig_ecs.trust import trusting
 from twig_ecs.validate import suggest
 from twig_ecs.yamldoc import YDict
 
@@ -112,22 +114,29 @@ class Scene:
         seed: int = 0,
         content: tuple[str | Path, ...] | list[str | Path] = (),
         plugins: Sequence[Plugin] | None = None,
+        trust: bool = False,
         **parameters: int | float | str,
     ) -> Scene:
         """Load a scene from a YAML path or a built-in/user scene name (``"schoolyard"``).
 
         ``content`` lists extra folders of templates and scenes; keyword ``parameters``
         set the scene's declared ``parameters:`` (``Scene.load("crowd", count=300)``);
-        ``plugins`` as for ``Scene()`` (default: all built in). The whole file is
-        validated before anything is created; errors raise :class:`SceneError`.
+        ``plugins`` as for ``Scene()`` (default: all built in). ``trust=True`` lets the
+        scene import the plug-in files and modules it names (``--trust``); without it, only
+        twig_ecs and installed plug-in packages (docs/reliability.md, "Trust"). The whole
+        file is validated before anything is created; errors raise :class:`SceneError`.
         """
         library = ContentLibrary(content)
-        plan = read_scene(source, library, parameters)
+        with trusting(True) if trust else contextlib.nullcontext():
+            plan = read_scene(source, library, parameters)
         return cls.from_plan(plan, seed, plugins)
 
     @classmethod
     def from_plan(cls, plan: ScenePlan, seed: int = 0, plugins: Sequence[Plugin] | None = None) -> Scene:
         """Build a scene from a validated :class:`ScenePlan` (with ``plugins``, default all)."""
+        unloaded = [spec for spec in plan.systems if spec.cls is None]
+        if unloaded:  # read by `twig validate`, which loads no plug-in code
+            raise TwigError("this scene plan was only checked (no plug-in loaded): load it to build it")
         scene = cls(plan.name, seed=seed, settings=plan.settings, library=plan.library, plugins=plugins)
         scene.source = plan.file
         scene.parameters = dict(plan.parameters)
@@ -463,8 +472,10 @@ class Scene:
     def restore(cls, data: bytes) -> Scene:
         """A scene from :meth:`snapshot` bytes; it runs on exactly as the original would.
 
-        Snapshot files are trusted input (they may name plug-in code to import); a corrupt,
-        truncated or other-version file raises :class:`~twig_ecs.snapshot.SnapshotError`.
+        A snapshot is data: it builds only the world's own classes and plain values, and the
+        plug-in modules it lists only when installed, loaded here already, or trusted. A
+        corrupt, truncated, hostile or other-version file raises
+        :class:`~twig_ecs.snapshot.SnapshotError`.
         """
         return snapshot.restore(data)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twig_ecs.behavior import Behavior, installed_behaviors, load_class
+from twig_ecs.behavior import Behavior, check_class_reference, installed_behaviors, load_class
 from twig_ecs.character import ARM_POSES, CHARACTER_KEYS, START_COMMANDS, CharacterSpec
 from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import SceneError, TwigError
@@ -29,7 +29,7 @@ from twig_ecs.templates import (
     read_damping,
     read_pain,
 )
-from twig_ecs.trust import check_plugin
+from twig_ecs.trust import check_plugin, is_checking_only
 from twig_ecs.validate import (
     LIMIT,
     between,
@@ -275,7 +275,7 @@ def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | N
             library.template(str(tname))
     systems = read_systems(doc, path)
     known = dict(load_builtin_behaviors())
-    known.update({spec.cls.name: spec.cls for spec in systems if issubclass(spec.cls, Behavior)})
+    known.update({spec.cls.name: spec.cls for spec in systems if spec.cls and issubclass(spec.cls, Behavior)})
     entities = []
     seen: dict[str, int] = {}
     errors: list[SceneError] = []  # each entity is checked even when an earlier one is wrong
@@ -367,11 +367,17 @@ def read_systems(doc: YDict, path: Path) -> list[SystemSpec]:
         check_keys(item, here, SYSTEM_KEYS)
         reference = read(item, "use", here, text)
         try:
-            check_plugin(reference, path.parent)  # untrusted scenes: plug-ins from their own folder only
-            cls = load_class(reference, str(path.parent))
+            if is_checking_only():  # twig validate: read the reference, run nothing
+                if not reference.partition(":")[0].endswith(".py"):
+                    check_plugin(reference, path.parent)  # a file is reported as needing --trust instead
+                check_class_reference(reference, str(path.parent))
+                cls = None
+            else:
+                check_plugin(reference, path.parent)  # untrusted scenes: twig_ecs and installed plug-ins only
+                cls = load_class(reference, str(path.parent))
         except TwigError as exc:
             fail(item, "use", join(here, "use"), str(exc))
-        if not (isinstance(cls, type) and issubclass(cls, System)):
+        if cls is not None and not (isinstance(cls, type) and issubclass(cls, System)):
             fail(item, "use", join(here, "use"), f"'{reference}' is not a twig_ecs System subclass")
         before = read(item, "before", here, text, None)
         after = read(item, "after", here, text, None)
@@ -414,6 +420,13 @@ def read_behaviors(raw: YDict, path: str, known: dict, systems: list[SystemSpec]
         here = f"{join(path, 'behaviors')}[{i}]"
         item = read(items, i, join(path, "behaviors"), mapping)
         name = read(item, "use", here, text)
+        if (
+            name not in known
+            and is_checking_only()
+            and (name in installed_behaviors() or any(s.cls is None for s in systems))
+        ):
+            out.append(BehaviorSpec(name, None))  # a plug-in's behaviour: not loaded, so not checked
+            continue
         if name not in known:
             installed = installed_behaviors()
             if name in installed:

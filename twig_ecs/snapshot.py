@@ -1,4 +1,4 @@
-"""Snapshot files: the whole state of a scene in one versioned, checksummed file.
+"""Snapshot files: the whole state of a scene in one versioned, checksummed file of data.
 
 A snapshot holds everything a scene needs to run on exactly as it would have: the
 physics store, every esper entity and component, the systems and behaviours with their
@@ -11,23 +11,24 @@ File layout (all integers big-endian)::
     b"TWIGSNAP"              8 bytes, magic
     format version           u16 (FORMAT_VERSION)
     meta length              u32, then that many bytes of UTF-8 JSON (scene, frame, plug-ins...)
-    payload length           u64, then that many bytes of pickle (protocol 5)
+    payload length           u64, then the payload:
+        structure length     u64, then that many bytes of UTF-8 JSON (the object graph)
+        arrays               the rest: the raw bytes of every numpy array, in order
     SHA-256                  32 bytes, of everything before it
 
-**Snapshot files are data** unless the user trusts them (``--trust``, see
-:mod:`twig_ecs.trust`): the payload is a pickle, read with a restricted unpickler that
-admits only classes of twig_ecs (not those that do input/output when built), plain numpy
-values (arrays, dtypes, scalars, random generators - no memmap), esper, a few harmless
-builtins, and the plug-in modules the snapshot lists - and those only when they are
-installed twig plug-ins, were loaded by this process from a scene the user ran, or the
-user trusts the file. A pickle is a program, so keep to snapshots you wrote or trust.
+**A snapshot is data, never code.** The payload is written and read by
+:mod:`twig_ecs.worlddata`: plain values, arrays of numbers, and objects of the world's own
+classes (components, systems, behaviours, the store...) rebuilt attribute by attribute
+from a closed table - no pickle, and no name in the file is ever imported or resolved
+to a function. Plug-in classes may appear only when their module is an installed twig
+plug-in package, was loaded here from a scene the user ran, or the user trusts the file
+(``--trust``): see :mod:`twig_ecs.trust`.
 
-Numba kernels and anything with a socket are not state: systems hold kernels by
-module reference (a kernel object met while pickling is stored as its name and looked
-up again), and outside observers (a server, a window, a metrics recorder) subscribe
-again to the restored scene. Only subscribers that belong to the scene - its systems'
-methods and importable functions - are kept; the rest are listed in the meta as
-``dropped``.
+Numba kernels and anything with a socket are not state: a kernel met while saving is
+stored by module and name and looked up again among the world modules' kernels, and
+outside observers (a server, a window, a metrics recorder) subscribe again to the restored
+scene. Only subscribers that belong to the scene - its systems' methods and callable world
+objects - are kept; the rest are listed in the meta as ``dropped``.
 """
 
 from __future__ import annotations
@@ -36,9 +37,7 @@ import hashlib
 import importlib
 import importlib.util
 import inspect
-import io
 import json
-import pickle
 import struct
 import sys
 from pathlib import Path
@@ -46,70 +45,25 @@ from typing import Any
 
 import esper
 
-from twig_ecs import esperworld
+from twig_ecs import esperworld, worlddata
 from twig_ecs.behavior import Mind
 from twig_ecs.errors import TwigError
 from twig_ecs.kernels import ensure_compiled
-from twig_ecs.trust import UntrustedCode, check_snapshot_plugin
+from twig_ecs.trust import UntrustedCode, check_snapshot_plugin, is_trusted, module_allowed
 from twig_ecs.version import __version__
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 3  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+FORMAT_VERSION = 4  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
 # 3: hands gliding in a hug or an embrace are a character-table column (hand_aim), not a HandAims component
+# 4: the payload is data (twig_ecs.worlddata: JSON structure + array bytes), no longer a pickle
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
+#: The largest snapshot file read (a corrupt length or a device file cannot make us read more).
+MAX_BYTES = 1 << 30
 #: Scene attributes that belong to this process, not to the world.
 _TRANSIENT = ("_world", "_installed", "_closed")
-#: Builtins a snapshot may name: containers and plain values only.
-_SAFE_BUILTINS = {"set", "frozenset", "dict", "list", "tuple", "int", "float", "complex", "bool", "str",
-                  "bytes", "bytearray", "slice", "range", "object", "NoneType"}  # fmt: skip
-_SAFE_OTHERS = {
-    ("collections", "Counter"),
-    ("collections", "OrderedDict"),
-    ("collections", "defaultdict"),
-    ("collections", "deque"),
-    ("pathlib", "PosixPath"),
-    ("pathlib", "PurePosixPath"),
-    ("pathlib", "WindowsPath"),
-    ("pathlib", "PureWindowsPath"),
-    ("copyreg", "_reconstructor"),
-}
-_SAFE_PACKAGES = ("twig_ecs", "numpy", "esper")
-_SAFE_FUNCTIONS = {
-    ("numpy._core.multiarray", "_reconstruct"),
-    ("numpy._core.multiarray", "scalar"),
-    ("numpy._core.numeric", "_frombuffer"),
-    ("numpy.core.multiarray", "_reconstruct"),
-    ("numpy.core.multiarray", "scalar"),
-    ("numpy.core.numeric", "_frombuffer"),
-    ("numpy.random._pickle", "__generator_ctor"),
-    ("numpy.random._pickle", "__bit_generator_ctor"),
-    ("numpy.random._pickle", "__randomstate_ctor"),
-    ("numpy.random.bit_generator", "__pyx_unpickle_SeedSequence"),
-    ("twig_ecs.snapshot", "_new_scene"),
-    ("twig_ecs.snapshot", "_kernel"),
-}
-
-
-#: Modules of allowed packages whose classes do input/output when built (a recorder opens its
-#: file): a snapshot never holds them, so it may not name them.
-_IO_MODULES = ("twig_ecs.replay", "twig_ecs.server", "twig_ecs.client", "twig_ecs.graphics", "twig_ecs.bench",
-               "twig_ecs.cli", "twig_ecs.report", "twig_ecs.metrics", "twig_ecs.__main__")  # fmt: skip
-
-
-def _plain_class(top: str, cls: type) -> bool:
-    """A class a snapshot may build: of numpy only dtypes, scalars, plain arrays and generators."""
-    if top != "numpy":
-        return True
-    import numpy as np
-
-    if cls is np.ndarray or issubclass(cls, np.dtype | np.generic):
-        return True
-    return cls.__module__.startswith("numpy.random") and issubclass(
-        cls, np.random.Generator | np.random.BitGenerator | np.random.SeedSequence
-    )
 
 
 class SnapshotError(TwigError):
@@ -128,6 +82,12 @@ def snapshot(scene) -> bytes:
             for kind, hs in handlers.items()}  # fmt: skip
     goals = _goals(scene)
     callbacks = [(goal, goal.on_end) for goal in goals]
+
+    def state_of(obj: Any) -> dict | None:
+        if obj is scene:  # the root: what belongs to this process stays out
+            return {k: v for k, v in vars(obj).items() if k not in _TRANSIENT}
+        return None
+
     try:
         scene._handlers = {kind: hs for kind, hs in kept.items() if hs}  # noqa: SLF001
         for goal in goals:
@@ -135,11 +95,12 @@ def snapshot(scene) -> bytes:
                 scene, goal.on_end, dropped, f"on_end of goal {goal.id}"
             ):
                 goal.on_end = None
-        buffer = io.BytesIO()
-        pickler = _Pickler(buffer, scene)
-        pickler.dump((scene, esperworld.capture()))
-    except SnapshotError:
-        raise
+        schema = worlddata.Schema()
+        structure, arrays, plugins = worlddata.encode(
+            [scene, esperworld.capture()], schema, state_of=state_of, plugin_ok=_writable_plugin
+        )
+    except worlddata.DataError as exc:
+        raise SnapshotError(f"cannot snapshot scene '{scene.name}': {exc}") from None
     except Exception as exc:  # something in the world that cannot be saved: say what
         raise SnapshotError(f"cannot snapshot scene '{scene.name}': {type(exc).__name__}: {exc}") from None
     finally:
@@ -153,11 +114,11 @@ def snapshot(scene) -> bytes:
         "frame": scene.frame,
         "time": scene.time,
         "state_hash": scene.state_hash(),
-        "plugins": _plugin_files(pickler.plugins),
+        "plugins": _plugin_files(plugins),
         "dropped": dropped,
     }
     meta_bytes = json.dumps(meta).encode()
-    payload = buffer.getvalue()
+    payload = _LEN.pack(len(structure)) + structure + arrays
     body = _HEAD.pack(MAGIC, FORMAT_VERSION, len(meta_bytes)) + meta_bytes + _LEN.pack(len(payload)) + payload
     return body + hashlib.sha256(body).digest()
 
@@ -176,13 +137,31 @@ def _goals(scene) -> list:
     return [goal for _, mind in esper.get_component(Mind) for goal in mind.goals]
 
 
+#: Packages whose classes are never plug-in state (outside twig_ecs's own world modules).
+_NOT_PLUGINS = {"__main__", "twig_ecs", "numpy", "numba", "esper", "pyglet", "moderngl", "yaml", "llvmlite"}
+
+
+def _writable_plugin(module: str) -> bool:
+    """May a snapshot hold objects of a class from ``module`` (outside the world modules)?
+
+    A user's own code that extends the world (a plug-in file, an installed plug-in, a test
+    module defining a system) - never the standard library or a library twig builds on.
+    """
+    top = module.split(".")[0]
+    return module in sys.modules and top not in _NOT_PLUGINS and top not in sys.stdlib_module_names
+
+
 def _belongs(scene, fn: Any, dropped: list[str], what: str) -> bool:
-    """Is callable ``fn`` part of the scene (a system's method, an importable function or class)?"""
+    """Is callable ``fn`` part of the scene: a method of the scene or a system, or a callable world object?
+
+    Plain functions are left out: a snapshot names no function (it is data), so a
+    module-level function subscribed to the scene is dropped and listed like a lambda.
+    """
     owner = getattr(fn, "__self__", None)
     if inspect.ismethod(fn) or (owner is not None and not inspect.ismodule(owner)):
         ok = owner is scene or any(owner is s for s in scene.schedule.systems())
-    elif inspect.isfunction(fn):
-        ok = "<" not in fn.__qualname__ and _importable(fn.__module__, fn.__qualname__, fn)
+    elif inspect.isfunction(fn) or inspect.isbuiltin(fn):
+        ok = False
     else:  # a callable object (like systems.attachment.Soothe): its class must be importable
         kind = type(fn)
         ok = "<" not in kind.__qualname__ and _importable(kind.__module__, kind.__qualname__, kind)
@@ -203,39 +182,6 @@ def _plugin_files(modules: list[str]) -> list[dict[str, str | None]]:
     return [{"module": m, "file": getattr(sys.modules.get(m), "__file__", None)} for m in modules]
 
 
-class _Pickler(pickle.Pickler):
-    """Pickles the scene without its process-bound parts, kernels by name, and refuses sockets."""
-
-    def __init__(self, file: io.BytesIO, scene) -> None:
-        super().__init__(file, protocol=5)
-        self.scene = scene
-        self.plugins: list[str] = []  # modules outside twig_ecs, numpy and esper that classes come from
-
-    def reducer_override(self, obj: Any) -> Any:
-        if obj is self.scene:  # the root: its systems point back at it, so pickle keeps one scene
-            state = {k: v for k, v in obj.__dict__.items() if k not in _TRANSIENT}
-            return _new_scene, (type(obj),), state
-        if isinstance(obj, type):
-            where = obj.__module__
-            plain = where.split(".")[0] in _SAFE_PACKAGES or (where, obj.__qualname__) in _SAFE_OTHERS
-            if not plain and where != "builtins" and where not in self.plugins:
-                self.plugins.append(where)
-            return NotImplemented
-        kind = type(obj)
-        module = kind.__module__ or ""
-        if module.startswith("numba"):
-            name, where = getattr(obj, "__name__", None), getattr(obj, "__module__", None)
-            if name and where and getattr(sys.modules.get(where), name, None) is obj:
-                return _kernel, (where, name)  # looked up again (and loaded from numba's cache)
-            raise SnapshotError(f"cannot snapshot a numba object that is not a module-level kernel: {obj!r}")
-        if module in ("socket", "ssl", "_thread", "threading") or module.startswith("asyncio"):
-            raise SnapshotError(
-                f"cannot snapshot a {kind.__name__} held in the world: keep connections and threads outside "
-                "the scene (a system attribute holding one should be rebuilt in setup())"
-            )
-        return NotImplemented
-
-
 #: The scene class (:class:`~twig_ecs.scene.Scene` registers itself when it is defined): a
 #: snapshot holds one of it or of a subclass, nothing else.
 _scene_classes: list[type] = []
@@ -249,20 +195,6 @@ def register_scene_class(cls: type) -> None:
 
 def _is_scene_class(cls: object) -> bool:
     return isinstance(cls, type) and any(issubclass(cls, base) for base in _scene_classes)
-
-
-def _new_scene(cls: type) -> Any:
-    """An empty scene object of class ``cls``, to be filled from the snapshot."""
-    if not _is_scene_class(cls):
-        raise SnapshotError("snapshot corrupt: it does not hold a scene")
-    return cls.__new__(cls)
-
-
-def _kernel(module: str, name: str) -> Any:
-    """A compiled kernel by its module and name (what the pickler stores for one)."""
-    if not module.startswith("twig_ecs."):
-        raise SnapshotError(f"snapshot names a kernel outside twig_ecs: {module}.{name}")
-    return getattr(importlib.import_module(module), name)
 
 
 # -- reading ---------------------------------------------------------------------------------
@@ -300,7 +232,7 @@ def _split(data: bytes) -> tuple[dict[str, Any], bytes]:
         raise SnapshotError("snapshot corrupt: its checksum does not match its contents")
     try:
         meta = json.loads(data[_HEAD.size : at])
-    except ValueError:
+    except (ValueError, RecursionError):
         raise SnapshotError("snapshot corrupt: unreadable meta") from None
     if not isinstance(meta, dict):
         raise SnapshotError("snapshot corrupt: unreadable meta")
@@ -311,12 +243,19 @@ def restore(data: bytes):
     """A new :class:`~twig_ecs.scene.Scene` from snapshot bytes (see :meth:`Scene.restore`)."""
     meta, payload = _split(data)
     allowed = _import_plugins(meta.get("plugins", []))
+    if len(payload) < _LEN.size:
+        raise SnapshotError("snapshot corrupt: its payload is shorter than its own length field")
+    (structure_len,) = _LEN.unpack_from(payload)
+    structure = payload[_LEN.size : _LEN.size + structure_len]
+    if len(structure) != structure_len:
+        raise SnapshotError("snapshot corrupt: its structure runs past its payload")
     try:
-        scene, world = _Unpickler(io.BytesIO(payload), allowed).load()
-    except SnapshotError:
-        raise
-    except Exception as exc:
-        raise SnapshotError(f"snapshot unreadable: {type(exc).__name__}: {exc}") from None
+        root = worlddata.decode(structure, payload[_LEN.size + structure_len :], worlddata.Schema(allowed))
+    except worlddata.DataError as exc:
+        raise SnapshotError(f"snapshot unreadable: {exc}") from None
+    if type(root) is not list or len(root) != 2:
+        raise SnapshotError("snapshot corrupt: it does not hold a scene")
+    scene, world = root
     if not _is_scene_class(type(scene)) or not isinstance(world, dict):
         raise SnapshotError("snapshot corrupt: it does not hold a scene")
     scene._world = esperworld.new_world_name()  # noqa: SLF001
@@ -326,26 +265,32 @@ def restore(data: bytes):
     scene.activate()
     try:
         esperworld.restore(world)
-    except Exception as exc:
+        ensure_compiled()
+        matches = scene.state_hash() == meta.get("state_hash")
+    except Exception as exc:  # a well-formed file whose parts do not fit together
         scene.close()
         why = type(exc).__name__
-        raise SnapshotError(f"snapshot corrupt: its entities cannot be restored ({why})") from None
+        raise SnapshotError(f"snapshot corrupt: its world cannot be restored ({why})") from None
     finally:
         if previous in esper.list_worlds() and previous != esper.current_world:
             esper.switch_world(previous)
-    ensure_compiled()
-    if scene.state_hash() != meta.get("state_hash"):
+    if not matches:
         scene.close()
         raise SnapshotError("snapshot corrupt: the restored positions do not match its state hash")
     return scene
 
 
 def load(path: str | Path):
-    """A scene restored from a snapshot file."""
+    """A scene restored from a snapshot file (at most :data:`MAX_BYTES`, a regular file)."""
     try:
-        data = Path(path).read_bytes()
+        with open(path, "rb") as file:
+            if not Path(path).resolve().is_file():
+                raise SnapshotError(f"cannot read snapshot '{path}': not a regular file")
+            data = file.read(MAX_BYTES + 1)
     except OSError as exc:
         raise SnapshotError(f"cannot read snapshot '{path}': {exc.strerror}") from None
+    if len(data) > MAX_BYTES:
+        raise SnapshotError(f"cannot read snapshot '{path}': larger than {MAX_BYTES >> 20} MiB")
     return restore(data)
 
 
@@ -358,19 +303,21 @@ def _import_plugins(plugins: Any) -> set[str]:
         module, file = (item.get("module"), item.get("file")) if isinstance(item, dict) else (None, None)
         if not isinstance(module, str) or not isinstance(file, str | None):
             raise SnapshotError("snapshot corrupt: bad plug-in list")
+        if module == "__main__" or module.startswith("twig_ecs.") or module == "twig_ecs":
+            raise SnapshotError(f"snapshot corrupt: '{module}' is not a plug-in module")
         try:
             check_snapshot_plugin(module, file)
         except UntrustedCode as exc:
             raise SnapshotError(str(exc)) from None
         if module not in sys.modules:
             try:
-                if file and Path(file).is_file() and module.startswith("twig_plugin_"):
+                if file and is_trusted() and Path(file).is_file() and module.startswith("twig_plugin_"):
                     spec = importlib.util.spec_from_file_location(module, file)
                     assert spec is not None and spec.loader is not None
                     loaded = importlib.util.module_from_spec(spec)
                     sys.modules[module] = loaded
                     spec.loader.exec_module(loaded)
-                else:
+                elif is_trusted() or module_allowed(module):
                     importlib.import_module(module)
             except Exception as exc:
                 sys.modules.pop(module, None)
@@ -379,29 +326,7 @@ def _import_plugins(plugins: Any) -> set[str]:
                     + (f" ({file})" if file else "")
                     + f", which cannot be imported: {type(exc).__name__}: {exc}"
                 ) from None
+        if module not in sys.modules:
+            raise SnapshotError(f"snapshot needs plug-in module '{module}', which is not loaded")
         names.add(module)
     return names
-
-
-class _Unpickler(pickle.Unpickler):
-    """Admits twig_ecs, numpy, esper, plain builtins and the snapshot's plug-in modules only."""
-
-    def __init__(self, file: io.BytesIO, plugins: set[str]) -> None:
-        super().__init__(file)
-        self.plugins = plugins
-
-    def find_class(self, module: str, name: str) -> Any:
-        top = module.split(".")[0]
-        if (module == "builtins" and name in _SAFE_BUILTINS) or (module, name) in _SAFE_OTHERS:
-            return super().find_class(module, name)
-        if (top in _SAFE_PACKAGES or module in self.plugins) and not module.startswith(_IO_MODULES):
-            found = super().find_class(module, name)
-            # classes only, and the few functions that rebuild arrays, generators, scenes and kernels:
-            # an arbitrary function of an allowed module could still do anything; and of numpy only
-            # plain values (an ndarray subclass such as memmap opens files when built)
-            if (module, name) in _SAFE_FUNCTIONS or (isinstance(found, type) and _plain_class(top, found)):
-                return found
-        raise SnapshotError(
-            f"snapshot refers to {module}.{name}, which a snapshot may not load "
-            "(only classes of twig_ecs, numpy, esper and its listed plug-ins, and plain builtins)"
-        )

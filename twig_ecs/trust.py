@@ -3,17 +3,18 @@
 Files from elsewhere are data unless the user says otherwise (``--trust``, or
 :func:`trusting` in Python). Untrusted:
 
-- a scene's plug-ins (``systems: - use: ...``) are a ``.py`` file inside the scene's own
-  folder (no ``..``, no absolute path out of it, no link pointing out), a module of
-  twig_ecs, or a module of an installed plug-in package (the ``twig_ecs.behaviors``
-  entry points);
-- a scene embedded in a replay file, and a snapshot, may name no plug-in files at all -
-  only twig_ecs and installed plug-in packages (and plug-ins this process already loaded
-  from a scene the user ran);
+- a scene's plug-ins (``systems: - use: ...``) are modules of twig_ecs or of an installed
+  plug-in package (the ``twig_ecs.behaviors`` entry points) - never a ``.py`` file, not
+  even one beside the scene: a file is code the user has not vouched for;
+- a snapshot is data (:mod:`twig_ecs.worlddata`); the plug-in modules it lists are used
+  only when installed or already loaded here from a scene the user ran;
 - replays write only their embedded YAML files, only inside their temporary folder.
 
-Trusted (``--trust``): any file or module a scene names is imported, as before. See
-docs/reliability.md, "Trust".
+Trusted (``--trust``): any file or module a scene names is imported.
+
+Checking is not running: within :func:`checking_only` (``twig validate``) no plug-in code
+runs at all, trusted or not; a plug-in file is read as text to see that it defines the
+class named. See docs/reliability.md, "Trust".
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ from twig_ecs.errors import TwigError
 _TRUSTED: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_trusted", default=False)
 #: Set while loading a scene that came inside a replay (data, not the user's own file).
 _FROM_DATA: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_from_data", default=False)
+#: Set while only checking files (``twig validate``): no plug-in code runs, trusted or not.
+_CHECKING: contextvars.ContextVar[bool] = contextvars.ContextVar("twig_checking", default=False)
 HOW_TO_TRUST = "if you trust where it came from, run again with --trust"
 
 
@@ -67,6 +70,21 @@ def loading_data() -> Iterator[None]:
         _FROM_DATA.reset(token)
 
 
+@contextlib.contextmanager
+def checking_only() -> Iterator[None]:
+    """Within the block, scenes are checked, not run: plug-in references are read, never imported."""
+    token = _CHECKING.set(True)
+    try:
+        yield
+    finally:
+        _CHECKING.reset(token)
+
+
+def is_checking_only() -> bool:
+    """Are files being checked only (no plug-in code may run, see :func:`checking_only`)?"""
+    return _CHECKING.get()
+
+
 def installed_plugin_packages() -> set[str]:
     """Top-level package names of installed twig plug-ins (entry points of twig_ecs.behaviors)."""
     from twig_ecs.behavior import ENTRY_POINT_GROUP  # here: `twig --help` need not load behaviours
@@ -90,21 +108,15 @@ def check_plugin(reference: str, base_dir: str | Path | None) -> None:
             raise UntrustedCode(
                 f"'{reference}': a scene inside a replay may not run plug-in files; {HOW_TO_TRUST}"
             )
-        if base_dir is None:
-            raise UntrustedCode(f"'{reference}': a plug-in file needs a scene folder; {HOW_TO_TRUST}")
-        folder = Path(base_dir).resolve()
-        path = Path(module)
-        resolved = (folder / path).resolve() if not path.is_absolute() else path.resolve()
-        if not resolved.is_relative_to(folder):
-            raise UntrustedCode(
-                f"'{reference}': plug-in files must be inside the scene's folder ({folder}); "
-                f"this one is {resolved} - move it beside the scene, or {HOW_TO_TRUST[3:]}"
-            )
-        return
+        raise UntrustedCode(
+            f"'{reference}' is a plug-in file: Python code, which a scene may run only when you trust it - "
+            f"{HOW_TO_TRUST} (in Python: Scene.load(..., trust=True)), or install it as a package "
+            "(entry point group twig_ecs.behaviors)"
+        )
     if not module_allowed(module):
         raise UntrustedCode(
             f"'{reference}': '{module}' is neither part of twig_ecs nor an installed twig plug-in "
-            f"(entry point group twig_ecs.behaviors); use a file beside the scene, or {HOW_TO_TRUST[3:]}"
+            f"(entry point group twig_ecs.behaviors); {HOW_TO_TRUST}"
         )
 
 
