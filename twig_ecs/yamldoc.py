@@ -188,6 +188,22 @@ def parse_yaml(text: str, file: str = "<string>", trusted_source: bool = False) 
         raise SceneError(f"invalid YAML: nested more than {MAX_DEPTH} deep", file) from None
 
 
+def compose_yaml(text: str, file: str = "<string>") -> yaml.Node | None:
+    """The document's node tree, for edits that keep the rest of the text as written.
+
+    Each node's ``start_mark.index``/``end_mark.index`` are character offsets into
+    ``text``. Read by the same loader as :func:`parse_yaml` (so ``1e3`` is a float here
+    too), after :func:`parse_yaml` has checked the text: the same limits, the same errors.
+    An alias is the very node object it refers to, so a node met twice is shared.
+    """
+    parse_yaml(text, file)
+    loader = _Loader(text)
+    try:
+        return loader.get_single_node()
+    finally:
+        loader.dispose()
+
+
 def merge(base: Any, override: Any) -> Any:
     """Deep-merge two YAML values: mappings merge key by key, anything else replaces.
 

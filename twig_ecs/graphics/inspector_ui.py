@@ -31,7 +31,7 @@ import numpy as np
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics import tuning
 from twig_ecs.graphics.overlay import inspector_rows
-from twig_ecs.graphics.scene_writeback import write_parameters
+from twig_ecs.graphics.scene_writeback import WriteBackError, write_parameters
 
 #: The history plot's span (simulated seconds) and sampling interval.
 HISTORY_SECONDS = 60.0
@@ -54,6 +54,39 @@ def _activations(scene, name: str) -> str:
         return "-"
     top = sorted(mind.last.items(), key=lambda kv: -kv[1])[:3]
     return "  ".join(f"{b} {a:.2f}" for b, a in top) or "-"
+
+
+def write_moved(scene, tunables: list[tuning.Tunable]) -> str:
+    """Write the sliders moved in ``scene`` into its YAML file; returns what happened, in words.
+
+    A slider hands back float32 noise (2.34 comes as 2.3400001525878906), so each moved
+    value is rounded to 6 significant digits and the running scene takes the rounded value:
+    it then holds what the file says. The values go in by path, are read back and loaded
+    before the file is replaced (:func:`~twig_ecs.graphics.scene_writeback.write_parameters`),
+    or none is written and the message says which could not be and why.
+    """
+    for t in tunables:
+        if t.value != t.initial:
+            t.value = float(f"{t.value:.6g}")
+    moved = [t for t in tunables if t.value != t.initial]
+    if not moved:
+        return "no parameter moved: nothing to write"
+    source = scene.source
+    if source is None or tuning.builtin_scene(source):
+        return (f"'{scene.name}' is a built-in scene: copy its YAML and play the copy "
+                "to write parameters into it")  # fmt: skip
+    name = Path(str(source)).name
+    values = {t.key: t.value for t in moved}
+    try:
+        count = write_parameters(source, values, library=scene.library, parameters=scene.parameters)
+    except WriteBackError as exc:
+        return f"not written ({name} unchanged): {exc.reason}"
+    except (TwigError, OSError) as exc:
+        return f"not written: {exc}"
+    for t in moved:  # what the file now says is where the next change starts from
+        t.initial = t.value
+    plural = "" if count == 1 else "s"
+    return f"wrote {count} parameter{plural} to {name} (read back: the scene loads with them)"
 
 
 class History:
@@ -257,20 +290,7 @@ class InspectorUI:
 
     def write_back(self, viewer) -> str:
         """Write the moved sliders' values into the scene's YAML; returns what happened, in words."""
-        values = tuning.changed(self.tunables)
-        if not values:
-            return "no parameter moved: nothing to write"
-        source = viewer.scene.source
-        if source is None or tuning.builtin_scene(source):
-            return (f"'{viewer.scene.name}' is a built-in scene: copy its YAML and play the copy "
-                    "to write parameters into it")  # fmt: skip
-        try:
-            count = write_parameters(source, values)
-        except (TwigError, OSError) as exc:
-            return f"not written: {exc}"
-        for t in self.tunables:  # what the file now says is where the next change starts from
-            t.initial = t.value
-        return f"wrote {count} parameter(s) to {Path(str(source)).name}"
+        return write_moved(viewer.scene, self.tunables)
 
     def release(self) -> None:
         """Free the renderer's GPU objects and the ImGui context."""
