@@ -577,6 +577,10 @@ class CollideSystem(System):
         """Broad-phase scratch arrays, kept between steps and grown as the scene grows."""
         self._scratch: dict[str, np.ndarray] = {}
 
+    def __getstate__(self) -> dict:
+        """Snapshots hold no scratch: the broad phase makes its arrays again."""
+        return {**self.__dict__, "_scratch": {}}
+
     def _array(self, key: str, shape: tuple[int, ...], dtype) -> np.ndarray:
         """A reusable scratch array with at least ``shape[0]`` rows (doubling to grow)."""
         a = self._scratch.get(key)

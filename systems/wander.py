@@ -127,6 +127,10 @@ class WanderBehavior(Behavior):
         field = SteeringParams()  # the approach behaviour's gains
         self._params = np.array([field.repulsion, field.cutoff, field.min_sq, field.fade, STEP_OVER])
 
+    def __getstate__(self) -> dict:
+        """Snapshots hold no scratch: the kernel's arrays and cached parameters are made again."""
+        return {**self.__dict__, "_scratch": {}}
+
     def _buffer(self, key: str, size: int, dtype, fill=None, width: int = 0) -> np.ndarray:
         """A reusable array of at least ``size`` rows (doubling when it must grow)."""
         buf = self._scratch.get(key)

@@ -7,6 +7,8 @@ import json
 import pickle
 import struct
 
+import esper
+import numpy as np
 import pytest
 
 from twig_ecs import Scene
@@ -278,3 +280,65 @@ def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scen
         holding.kept = sock
         with pytest.raises(SnapshotError, match="cannot write a socket.socket: it is not world state"):
             scene.snapshot()
+
+
+# -- a well-formed file whose world is not one the kernels may walk -------------------------------
+
+
+def _hostile(scene, change) -> bytes:
+    """A snapshot of ``scene`` after ``change(scene)``: the file anyone could write (right hash and all)."""
+    change(scene)
+    return scene.snapshot()
+
+
+def _body_outside(scene) -> None:
+    from twig_ecs.components import Body
+
+    scene.activate()
+    next(iter(esper.get_component(Body)))[1].node_start = 10**6
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (lambda s: s.state.links.a.__setitem__(0, 10**6), "links.a holds a row outside"),
+        (lambda s: s.state.characters.nodes.__setitem__((0, 3), -5), "characters.nodes holds a row outside"),
+        (lambda s: setattr(s.state, "n_pairs", 10**6), "pair count"),
+        (lambda s: setattr(s.state.nodes, "count", 10**6), "row count"),
+        (
+            lambda s: s.state.nodes._set("prev", s.state.nodes.prev.astype(np.float32)),
+            "nodes.prev is not an array",
+        ),
+        (lambda s: s.state.released.append([0, 10**6, 3]), "released holds a row outside"),
+        (_body_outside, "body points outside the store"),
+    ],
+    ids=["link-node", "character-node", "pair-count", "node-count", "dtype", "released", "body-rows"],
+)
+def test_a_snapshot_whose_rows_point_outside_the_store_is_refused(scenes, change, says):
+    scene = Scene.load("playground")
+    scenes.append(scene)
+    scene.run(0.2)
+    with pytest.raises(SnapshotError, match=f"snapshot corrupt: .*{says}"):
+        Scene.restore(_hostile(scene, change))
+
+
+def test_caches_of_rows_never_come_from_a_file(scenes, monkeypatch):
+    """A system's cache written into a file - the broad phase's scratch, the attention rows - is not used."""
+    from twig_ecs.systems.attention import AttentionSystem
+    from twig_ecs.systems.collide import CollideSystem
+
+    scene = Scene.load("schoolyard")
+    scenes.append(scene)
+    scene.run(0.5)
+    collide = next(s for s in scene.schedule.systems() if isinstance(s, CollideSystem))
+    attention = next(s for s in scene.schedule.systems() if isinstance(s, AttentionSystem))
+    collide._scratch = {"lo": np.zeros((10**5, 1)), "order": np.zeros(3, dtype=np.int64)}  # noqa: SLF001
+    attention._rows = [("parent", 10**6)]  # noqa: SLF001 - a row far outside the store, with a matching key
+    monkeypatch.setattr(CollideSystem, "__getstate__", lambda self: dict(self.__dict__))  # the file keeps it
+    data = scene.snapshot()
+    monkeypatch.undo()
+    restored = Scene.restore(data)
+    scenes.append(restored)
+    restored.run(0.5)  # made again: no out-of-range row reaches a kernel
+    (copy,) = [s for s in restored.schedule.systems() if isinstance(s, CollideSystem)]
+    assert copy._scratch["lo"].shape[1] == 3  # noqa: SLF001

@@ -47,8 +47,10 @@ import esper
 
 from twig_ecs import esperworld, worlddata
 from twig_ecs.behavior import Mind
+from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.kernels import ensure_compiled
+from twig_ecs.store import check_store
 from twig_ecs.trust import UntrustedCode, check_snapshot_plugin, is_trusted, module_allowed
 from twig_ecs.version import __version__
 
@@ -264,9 +266,15 @@ def restore(data: bytes):
     previous = esper.current_world
     scene.activate()
     try:
+        check_store(scene.state)
         esperworld.restore(world)
+        _check_components(scene.state)
+        scene.state.version += 1  # every cache of row indices a system kept is made again
         ensure_compiled()
         matches = scene.state_hash() == meta.get("state_hash")
+    except ValueError as exc:  # the parts are data, but not a world the kernels may walk
+        scene.close()
+        raise SnapshotError(f"snapshot corrupt: {exc}") from None
     except Exception as exc:  # a well-formed file whose parts do not fit together
         scene.close()
         why = type(exc).__name__
@@ -278,6 +286,30 @@ def restore(data: bytes):
         scene.close()
         raise SnapshotError("snapshot corrupt: the restored positions do not match its state hash")
     return scene
+
+
+def _check_components(state) -> None:
+    """Components that hold store rows must point at rows that exist (ValueError saying which)."""
+    nodes, links, bodies, characters = (state.nodes.count, state.links.count, state.bodies.count,
+                                        state.characters.count)  # fmt: skip
+    for entity, body in esper.get_component(Body):
+        size = len(body.node_names) if isinstance(body.node_names, tuple | list) else -1
+        if not (
+            _row(body.index, bodies) and _row(body.node_start, nodes) and 0 < size <= nodes - body.node_start
+            and _row(body.link_start, links + 1) and type(body.link_count) is int
+            and 0 <= body.link_count <= links - body.link_start
+        ):  # fmt: skip
+            raise ValueError(f"entity {entity}'s body points outside the store")
+    for entity, character in esper.get_component(Character):
+        if not _row(character.index, characters):
+            raise ValueError(f"entity {entity}'s character row is outside the store")
+    for entity, joint in esper.get_component(GrabJoint):
+        if not _row(joint.index, links):
+            raise ValueError(f"grab joint {entity}'s link row is outside the store")
+
+
+def _row(value: Any, count: int) -> bool:
+    return type(value) is int and 0 <= value < count
 
 
 def load(path: str | Path):

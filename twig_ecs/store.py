@@ -16,6 +16,8 @@ from operator import itemgetter
 
 import numpy as np
 
+from twig_ecs import kernelmath
+
 # Node flags (bit masks in PhysicsState.node_flags).
 NODE_LOCKED = 1  # held at node_lock_pos (static friction, fixed pivots)
 NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
@@ -296,6 +298,108 @@ def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
         return
     free = np.flatnonzero(slots == -1)
     slots[free[0] if len(free) else 1] = body
+
+
+#: The blocks of a store and their fields (what a restored store is checked against).
+BLOCKS: dict[str, dict[str, tuple[type, tuple[int, ...], float]]] = {
+    "nodes": NODE_FIELDS, "links": LINK_FIELDS, "limits": LIMIT_FIELDS, "colliders": COLLIDER_FIELDS,
+    "bodies": BODY_FIELDS, "characters": CHARACTER_FIELDS,
+}  # fmt: skip
+#: Row-index columns: (block, column) -> (block its values index, lowest value allowed). The
+#: kernels index with them unchecked, so a store from a file must keep them in range.
+INDEX_COLUMNS: dict[tuple[str, str], tuple[str, int]] = {
+    ("nodes", "damp_ref"): ("nodes", -1), ("nodes", "axle_a"): ("nodes", -1),
+    ("nodes", "axle_b"): ("nodes", -1), ("nodes", "body"): ("bodies", -1),
+    ("links", "a"): ("nodes", 0), ("links", "b"): ("nodes", 0), ("links", "body"): ("bodies", -1),
+    ("limits", "root"): ("nodes", 0), ("limits", "mid"): ("nodes", 0), ("limits", "tip"): ("nodes", 0),
+    ("limits", "frame"): ("nodes", -1), ("limits", "body"): ("bodies", -1),
+    ("colliders", "a"): ("nodes", 0), ("colliders", "b"): ("nodes", 0), ("colliders", "link"): ("links", -1),
+    ("colliders", "body"): ("bodies", -1), ("colliders", "hit_by"): ("colliders", -1),
+    ("characters", "body"): ("bodies", 0), ("characters", "nodes"): ("nodes", 0),
+    ("characters", "breath_links"): ("links", -1), ("characters", "gaze_node"): ("nodes", -1),
+    ("characters", "arm_node"): ("nodes", -1),
+}  # fmt: skip
+
+#: Columns of named modes, and how many there are: (block, column) -> count.
+MODE_COLUMNS: dict[tuple[str, str], int] = {
+    ("characters", "mode"): kernelmath.LIMP + 1, ("characters", "gaze_mode"): kernelmath.GAZE_NODE + 1,
+    ("characters", "arm_mode"): len(kernelmath.ARM_MODES), ("characters", "last_step"): 2,
+    ("nodes", "move_gravity"): MOVE_GAIT_ARC + 1,
+}  # fmt: skip
+
+
+def check_store(state: PhysicsState) -> None:
+    """Check that a store read from a file is one the kernels may walk (ValueError saying what is not).
+
+    Every block has exactly its fields, as arrays of the declared type and shape, of one
+    capacity holding ``count`` rows; every row index is in range; positions are finite; the
+    broad phase's pairs and the held and released tables point at rows that exist. The
+    blocks' field tables are set back to the module's own (kernels' column plans are cached
+    by them).
+    """
+    counts = {}
+    for name, fields in BLOCKS.items():
+        block = getattr(state, name, None)
+        if type(block) is not Block or not isinstance(getattr(block, "arrays", None), dict):
+            raise ValueError(f"the store has no {name} block")
+        if set(block.arrays) != set(fields):  # its own field table is replaced by the module's below
+            raise ValueError(f"the store's {name} block does not have the {name} fields")
+        count, capacity = block.count, None
+        for column, (dtype, shape, _fill) in fields.items():
+            array = block.arrays[column]
+            if type(array) is not np.ndarray or array.dtype != dtype or array.shape[1:] != shape:
+                raise ValueError(
+                    f"{name}.{column} is not an array of {np.dtype(dtype)} rows of shape {shape}"
+                )
+            capacity = len(array) if capacity is None else capacity
+            if len(array) != capacity or block.__dict__.get(column) is not array:
+                raise ValueError(f"the {name} block's arrays differ in length")
+        if type(count) is not int or not 0 <= count <= capacity or capacity < 1:
+            raise ValueError(f"the {name} block's row count {count!r} does not fit its arrays")
+        block.fields = fields
+        counts[name] = count
+    for (name, column), (target, lowest) in INDEX_COLUMNS.items():
+        rows = getattr(state, name).arrays[column][: counts[name]]
+        _check_rows(rows, lowest, counts[target], f"{name}.{column}")
+    ignore = state.colliders.ignore[: counts["colliders"]]
+    bodies = ignore[ignore >= -1]
+    colliders = -2 - ignore[ignore <= -2]
+    if np.any(bodies >= counts["bodies"]) or np.any(colliders >= counts["colliders"]):
+        raise ValueError("colliders.ignore names a body or collider that does not exist")
+    _check_rows(state.colliders.local[: counts["colliders"]], 0, 64, "colliders.local")
+    for (name, column), choices in MODE_COLUMNS.items():  # modes the controllers look up by value
+        _check_rows(getattr(state, name).arrays[column][: counts[name]], 0, choices, f"{name}.{column}")
+    nodes = state.nodes
+    for column in ("pos", "prev", "lock_pos"):
+        if not np.isfinite(nodes.arrays[column][: counts["nodes"]]).all():
+            raise ValueError(f"nodes.{column} holds a position that is not a finite number")
+    pairs, n_pairs = state.pairs, state.n_pairs
+    if type(pairs) is not np.ndarray or pairs.dtype != np.int32 or pairs.ndim != 2 or pairs.shape[1] != 2:
+        raise ValueError("the broad phase's pairs are not an (n, 2) int32 array")
+    if type(n_pairs) is not int or not 0 <= n_pairs <= len(pairs):
+        raise ValueError(f"the broad phase's pair count {n_pairs!r} does not fit its array")
+    _check_rows(pairs[:n_pairs], 0, counts["colliders"], "the broad phase's pairs")
+    tables = (("held", 4, ("nodes", "nodes", "links", "links")), ("gentle", 2, ("bodies", "bodies")))
+    for table, width, bounds in tables:
+        array = getattr(state, table)
+        if type(array) is not np.ndarray or array.dtype != np.int64 or array.shape[1:] != (width,):
+            raise ValueError(f"the store's {table} table is not an (n, {width}) int64 array")
+        for k, target in enumerate(bounds):  # held rows are [first, end) ranges: end may equal the count
+            _check_rows(array[:, k], 0, counts[target] + (table == "held"), f"{table}[:, {k}]")
+    released = state.released
+    if type(released) is not list or not all(
+        type(r) is list and len(r) == 3 and all(type(v) is int for v in r) for r in released
+    ):
+        raise ValueError("the store's released table is not a list of [node, node, steps]")
+    _check_rows(np.array([r[:2] for r in released], dtype=np.int64), 0, counts["nodes"], "released")
+    stats = state.stats
+    if type(stats) is not np.ndarray or stats.dtype != np.float64 or stats.shape != (4,):
+        raise ValueError("the store's stats are not 4 floats")
+
+
+def _check_rows(values: np.ndarray, lowest: int, count: int, what: str) -> None:
+    if values.size and (values.min() < lowest or values.max() >= count):
+        raise ValueError(f"{what} holds a row outside 0..{count - 1}")
 
 
 def _remap(indices: np.ndarray, remap: np.ndarray) -> None:

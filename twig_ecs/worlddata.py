@@ -13,7 +13,9 @@ back only what a closed schema allows:
 - objects of **world classes** - the classes defined in the modules listed in
   :data:`WORLD_MODULES` (components, systems, behaviours, the store, the scene...) and in
   plug-in modules the caller allows - rebuilt with ``cls.__new__(cls)`` and their
-  attributes set directly: no ``__init__``, no ``__reduce__``, no ``__setstate__``;
+  attributes set directly: no ``__init__``, no ``__reduce__``, no ``__setstate__``. A
+  class with a ``__getstate__`` of its own (one that leaves its caches out) has it
+  applied to what was read as well, so a cache never comes from a file;
 - bound methods of such objects (an event handler such as ``system.on_pain``): a public
   function of the object's own class, looked up on the class;
 - numba kernels of world modules, by module and name.
@@ -133,10 +135,15 @@ class Schema:
 # -- writing -----------------------------------------------------------------------------------
 
 
+def _custom_getstate(cls: type) -> bool:
+    """Does ``cls`` say itself what of it is state (a ``__getstate__`` of its own, not dataclasses')?"""
+    getstate = getattr(cls, "__getstate__", None)
+    return inspect.isfunction(getstate) and getstate.__module__ not in ("dataclasses", "builtins")
+
+
 def _attributes(obj: Any) -> dict[str, Any]:
     """An object's attributes: its own ``__getstate__`` if its class defines one, else dict and slots."""
-    getstate = getattr(type(obj), "__getstate__", None)
-    if inspect.isfunction(getstate) and getstate.__module__ not in ("dataclasses", "builtins"):
+    if _custom_getstate(type(obj)):
         state = obj.__getstate__()
         if not isinstance(state, dict):
             raise DataError(f"{type(obj).__qualname__}.__getstate__ must return a dict of attributes")
@@ -466,6 +473,12 @@ class Decoder:
                     raise DataError(f"a {name} has no attribute {key!r}") from None
             else:
                 obj.__dict__[key] = decoded
+        if _custom_getstate(cls) and hasattr(obj, "__dict__"):
+            # the class says what of it is state (caches left out or emptied): what a file adds
+            # beyond that is dropped, so no cache of row indices is ever taken from a file
+            state = obj.__getstate__()
+            obj.__dict__.clear()
+            obj.__dict__.update(state)
         return obj
 
     def _method(self, node: list) -> MethodType:
