@@ -197,7 +197,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out):
     return n_out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, body_hi, body_start, order,
                    bpairs, n_bpairs, pairs):  # fmt: skip
     """Level two of the broad phase: collider pairs whose padded boxes overlap.
@@ -515,7 +515,7 @@ def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
     return near, n_near
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held):
     """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
     constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`), then

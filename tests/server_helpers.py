@@ -23,6 +23,7 @@ class Running:
     port: int
     twig_port: int | None
     loop: asyncio.AbstractEventLoop
+    log: list[str]
 
 
 @contextlib.contextmanager
@@ -36,15 +37,17 @@ def running_server(
     window: bool = False,
     timeout: float = 60.0,
     record: str | None = None,
+    record_limit: int | None = None,
     trust: bool = False,
 ) -> Iterator[Running]:
     """Serve ``scene`` on 127.0.0.1 (ephemeral ports) in a thread until the block ends.
 
-    ``record``: a replay file to log the applied commands to (as ``twig serve --record``);
-    ``trust``: the scene may run its plug-in files (``--trust``).
+    ``record``: a replay file to log the applied commands to (as ``twig serve --record``),
+    at most ``record_limit`` bytes (``--record-limit``). The server's log lines are in
+    ``running.log``. ``trust``: the scene may run its plug-in files (``--trust``).
     """
     ready = threading.Event()
-    box: dict = {}
+    box: dict = {"log": []}
 
     def main() -> None:
         async def serve() -> None:
@@ -61,7 +64,8 @@ def running_server(
                 if record is not None:
                     from twig_ecs.replay import Recorder
 
-                    recorder = Recorder(record, scene, seed, (), autonomous)
+                    limit = {} if record_limit is None else {"limit": record_limit}
+                    recorder = Recorder(record, scene, seed, (), autonomous, **limit)
                 server = Server(
                     loaded,
                     port=0,
@@ -70,14 +74,16 @@ def running_server(
                     paused=paused,
                     autonomous=autonomous,
                     window=shown,
-                    log=lambda text: box.setdefault("log", []).append(text),
+                    log=box["log"].append,
                     recorder=recorder,
                 )
             except BaseException:
                 (shown or loaded).close()
                 raise
             await server.start()
-            box["running"] = Running(server, server.port, server.twig_port, asyncio.get_running_loop())
+            box["running"] = Running(
+                server, server.port, server.twig_port, asyncio.get_running_loop(), box["log"]
+            )
             ready.set()
             await server.serve_forever()
 

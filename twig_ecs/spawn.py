@@ -27,8 +27,10 @@ if TYPE_CHECKING:
 #: Most bodies one scene may hold (twice the crowd's largest count): every step costs at least
 #: their number, and a server must keep answering.
 MAX_BODIES = 10000
-#: Largest a body may be across (m): the broad phase files every body in the grid cells its
-#: box covers, so one huge body (a merry-go-round of height 100) makes each step take seconds.
+#: Largest a body may be across (m), contact radii included: the broad phase files every
+#: collider in the grid cells its box covers, so one huge body (a merry-go-round of height
+#: 100, a ball of height 100, a node of radius 250) makes each step take seconds or more
+#: memory than there is.
 MAX_EXTENT = 30.0
 
 
@@ -39,19 +41,62 @@ def yaw_matrix(degrees: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def contact_radii(template: BodyTemplate) -> np.ndarray:
+    """Each node's contact radius at the reference height: its own, or the fattest collidable link's."""
+    index = {n.name: k for k, n in enumerate(template.nodes)}
+    link_radius = np.zeros(len(template.nodes))
+    for link in template.links:
+        if link.collide:
+            for end in (link.a, link.b):
+                link_radius[index[end]] = max(link_radius[index[end]], link.radius)
+    own = [n.radius for n in template.nodes]
+    return np.array([r if r is not None else lr for r, lr in zip(own, link_radius, strict=True)])
+
+
+def body_bounds(template: BodyTemplate, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """The corners (low, high) of the body's box in its own frame (m), contact radii included."""
+    if not template.nodes:
+        return np.zeros(3), np.zeros(3)
+    local = np.array([n.at for n in template.nodes], dtype=np.float64) * scale
+    radius = contact_radii(template)[:, None] * scale
+    return (local - radius).min(axis=0), (local + radius).max(axis=0)
+
+
 def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float) -> None:
-    """Refuse (SceneError, with the limit and the way out) a body past MAX_BODIES or MAX_EXTENT."""
+    """Refuse (SceneError, with the limit and the way out) a body past MAX_BODIES or MAX_EXTENT.
+
+    Called before anything of the body is made (store rows, entities, colliders).
+    """
     from twig_ecs.errors import SceneError
 
     bodies = scene.state.bodies.count
     if bodies >= MAX_BODIES:
         raise SceneError(f"cannot add '{name}': the scene already has {bodies} bodies, the most it may "
                          f"hold (MAX_BODIES); remove some first")  # fmt: skip
-    local = np.array([n.at for n in template.nodes], dtype=np.float64) * scale
-    extent = float(np.ptp(local, axis=0).max()) if len(local) else 0.0
-    if extent > MAX_EXTENT:
-        raise SceneError(f"cannot add '{name}': at this height it would be {extent:.0f} m across, over "
-                         f"the {MAX_EXTENT:.0f} m limit (MAX_EXTENT); give a smaller height")  # fmt: skip
+    low, high = body_bounds(template, scale)
+    extent = float((high - low).max())
+    if not extent <= MAX_EXTENT:  # NaN too
+        across = f"{extent:.0f}" if extent < 1e6 else f"{extent:.3g}"  # a radius of 1e300 too
+        raise SceneError(f"cannot add '{name}': at this height it would be {across} m across (contact "
+                         f"radii included), over the {MAX_EXTENT:.0f} m limit (MAX_EXTENT); give a smaller "
+                         f"height or radius")  # fmt: skip
+
+
+def crowding(scene: Scene, template: BodyTemplate, scale: float, position, facing: float) -> list[int]:
+    """The bodies (store rows) with a node reaching into the box a new body would fill there.
+
+    The server refuses a spawn into a pile (see ``twig_ecs.server.methods.MAX_CROWD``): a
+    few hundred bodies at one spot make each step take seconds.
+    """
+    low, high = body_bounds(template, scale)
+    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
+                        for z in (low[2], high[2])])  # fmt: skip
+    world = corners @ yaw_matrix(facing).T + np.asarray(position, dtype=np.float64)
+    lo, hi = world.min(axis=0), world.max(axis=0)
+    nodes = scene.state.nodes
+    pos, radius = nodes.pos[: nodes.count], nodes.radius[: nodes.count, None]
+    inside = np.all((pos + radius >= lo) & (pos - radius <= hi), axis=1)
+    return sorted({int(b) for b in np.unique(nodes.body[: nodes.count][inside])})
 
 
 def spawn_body(
@@ -104,18 +149,13 @@ def spawn_body(
     nodes.lock_pos[rows] = world
     nodes.body[rows] = body
     nodes.color[rows] = body_color
-    # contact radius: the fattest collidable link touching the node, unless given
-    link_radius = np.zeros(len(template.nodes))
-    for link in template.links:
-        if link.collide:
-            for end in (link.a, link.b):
-                link_radius[index[end]] = max(link_radius[index[end]], link.radius * scale)
+    radii = contact_radii(template)  # the node's own, or the fattest collidable link touching it
     for k, spec in enumerate(template.nodes):
         i = first + k
         m = spec.mass * mass_scale
         nodes.mass[i] = m
         nodes.inv_mass[i] = 1.0 / m
-        nodes.radius[i] = spec.radius * scale if spec.radius is not None else link_radius[k]
+        nodes.radius[i] = radii[k] * scale
         d = damping or spec.damping or template.damping
         nodes.damp_air[i], nodes.damp_ground[i] = d.air, d.ground
         flags = 0

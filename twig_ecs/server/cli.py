@@ -10,10 +10,8 @@ import sys
 from collections.abc import Callable
 
 from twig_ecs.errors import TwigError
+from twig_ecs.server.access import TOKEN_ENV, check_token
 from twig_ecs.server.ports import DEFAULT_PORT, DEFAULT_TWIG_PORT  # not .core: asyncio, for every command
-
-#: Environment variable a token can come from (kept out of ``ps`` listings).
-TOKEN_ENV = "TWIG_TOKEN"
 
 
 def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
@@ -65,7 +63,24 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
         default=None,
         help="log every applied command with its frame (replay with: twig run --replay FILE)",
     )
+    p.add_argument(
+        "--record-limit",
+        metavar="MIB",
+        type=_mebibytes,
+        default=None,
+        help="stop recording when the file reaches this size (default 256 MiB); the server goes on",
+    )
     p.set_defaults(func=cmd_serve)
+
+
+def _mebibytes(text: str) -> int:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a size in MiB, such as 64 (got {text!r})") from None
+    if not 1 <= value <= 1 << 20:
+        raise argparse.ArgumentTypeError("between 1 MiB and 1 TiB (1048576)")
+    return int(value * (1 << 20))
 
 
 def _port(text: str) -> int:
@@ -115,6 +130,7 @@ def check_ports_free(host: str, ports) -> None:
 def cmd_serve(args: argparse.Namespace) -> int:
     """Load the scene and serve it until interrupted (or the window closes)."""
     token = args.token or os.environ.get(TOKEN_ENV) or None
+    check_token(token)
     check_binding(args.host, token)
     check_ports_free(args.host, (args.port, args.twig_port))  # before a replay file is written
     from twig_ecs.server.core import Server
@@ -135,7 +151,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if args.record:
             from twig_ecs.server.replay import Recorder
 
-            recorder = Recorder(args.record, args.scene, args.seed, args.content, args.autonomous)
+            limit = {"limit": args.record_limit} if args.record_limit else {}
+            recorder = Recorder(args.record, args.scene, args.seed, args.content, args.autonomous, **limit)
         server = Server(
             scene,
             host=args.host,

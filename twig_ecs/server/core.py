@@ -1,18 +1,24 @@
 """The asyncio server: client sessions, the command queue and the simulation's own loop.
 
-One thread, one event loop. Sessions read request lines, check them and queue
-commands; only the simulation task touches the scene: at 60 Hz (or when stepped,
-while paused) it steps, then applies the queued commands in arrival order, so every
-command lands between two steps. Answers and notifications are written without
-waiting for the client: a session that stops reading is first not read from (at most
-:data:`MAX_INFLIGHT` unanswered requests each) and, if its unsent output passes
-:data:`MAX_UNSENT` bytes, disconnected - the simulation never waits for a client.
+Two threads. The event loop's thread reads request lines, checks them, queues
+commands and writes answers; ``ping``, ``status``, ``auth`` and ``subscribe`` are
+answered there at once. The world itself is touched only by the *world thread*, one
+job at a time: the simulation task (on the event loop) hands it one step, or one queued
+command, and waits for it, so every command still lands between two steps, in arrival
+order, and the loop stays free to answer while a step or a pile of spawns takes long.
+Answers and notifications are written without waiting for the client: a session that
+stops reading is first not read from (at most :data:`MAX_INFLIGHT` unanswered requests
+each) and, if its unsent output passes :data:`MAX_UNSENT` bytes, disconnected - the
+simulation never waits for a client. Commands still queued when their client goes are
+dropped, never applied.
 """
 
 from __future__ import annotations
 
 import asyncio
 import collections
+import concurrent.futures
+import functools
 import inspect
 import sys
 import time
@@ -30,6 +36,7 @@ from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
 from twig_ecs.scene import Scene
 from twig_ecs.server import protocol as rpc
+from twig_ecs.server.access import check_token
 from twig_ecs.server.ports import DEFAULT_PORT, DEFAULT_TWIG_PORT  # noqa: F401 - their old home
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.server.session import Command, JsonSession, Session
@@ -42,8 +49,13 @@ CHECKPOINT_EVERY = 120
 AUTH_TIMEOUT = 30.0
 #: Most simulation steps run to catch up after a stall (then the clock drops the rest).
 MAX_CATCH_UP = 5
-#: Longest the loop spends applying queued commands before stepping again (s).
+#: Least time the loop may spend applying queued commands before stepping again (s); when
+#: the last step took longer, as long as it took (a pile of spawns goes in big chunks while
+#: the world still gets at least half the time).
 COMMAND_BUDGET = 0.008
+#: Most wall time one world job of a ``step`` call runs frames for before the loop looks
+#: in again (s): a stop, a SIGTERM or a window frame waits at most about this long.
+STEP_SLICE = 0.010
 #: Queued methods that leave the world as it was (no new rollback checkpoint after them).
 READ_ONLY = frozenset(
     {"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume", "step"}
@@ -80,6 +92,7 @@ class Server:
         self.host = host
         self.port = port
         self.twig_port = twig_port
+        check_token(token)
         self.token = token
         #: the simulation's clock: 60 Hz of wall time, at most MAX_CATCH_UP steps to catch up
         self.clock = FixedStepClock(scene.dt, max_steps=MAX_CATCH_UP, max_elapsed=None, paused=paused)
@@ -92,10 +105,17 @@ class Server:
         self.sessions: set[Session] = set()
         self.goal_owners: dict[int, Session] = {}
         self.steps_run = 0
+        #: wall seconds of the last real-time frame (checkpoint, step, events) on the world thread
+        self.frame_cost = 0.0
+        #: what ``status`` reports of the world, as of the end of the last world job
+        self.world_status: dict[str, Any] = {}
         # one queue per client, served in turn (one command each): a client that sends
         # thousands of requests delays another's by at most one command per busy client
         self._queues: dict[Session, collections.deque[Command]] = collections.OrderedDict()
         self._pending: list[Any] = []  # scene events since the last flush
+        self._outbox: list[tuple[Session, str, dict[str, Any]]] = []  # notifications to write
+        self._world: concurrent.futures.ThreadPoolExecutor | None = None  # the world thread
+        self._job: concurrent.futures.Future | None = None  # its current (or last) job
         self._grabs: dict[int, tuple[str, str | None, str]] = {}
         self._listeners: list[asyncio.base_events.Server] = []
         self._sim: asyncio.Task | None = None
@@ -126,6 +146,7 @@ class Server:
         scene.step(0)  # compile the kernels and install the systems before clients come
         self._grabs = {}
         self._grabs = self._read_grabs()
+        self._note_status()
 
     # -- lifetime ---------------------------------------------------------------------------
 
@@ -133,6 +154,7 @@ class Server:
         """Bind the ports and start the simulation loop."""
         self._wakeup = asyncio.Event()
         self._stopped = asyncio.Event()
+        self._world = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="twig-world")
         listener = await asyncio.start_server(self._accept(JsonSession), self.host, self.port)
         self._listeners.append(listener)
         self.port = listener.sockets[0].getsockname()[1]
@@ -167,6 +189,10 @@ class Server:
                 await self._sim
             except asyncio.CancelledError:
                 pass
+        await self._world_idle()  # the job under way (one frame or one command) ends first
+        if self._world is not None:
+            self._world.shutdown(wait=False)
+            self._world = None
         for listener in self._listeners:
             await listener.wait_closed()
         self._listeners.clear()
@@ -187,11 +213,58 @@ class Server:
                 await session.serve()
             finally:
                 self.sessions.discard(session)
+                self.forget(session)
                 for goal, owner in list(self.goal_owners.items()):
                     if owner is session:  # its goals go on; nobody is told of their end
-                        del self.goal_owners[goal]
+                        self.goal_owners.pop(goal, None)
 
         return serve
+
+    def forget(self, session: Session) -> None:
+        """Drop what a gone client still has queued: nobody waits for it, it is never applied."""
+        dropped = self._queues.pop(session, None)
+        if dropped:
+            self.log(f"client {session.peer} left; {len(dropped)} queued command(s) dropped")
+
+    # -- the world thread ----------------------------------------------------------------------
+
+    async def in_world(self, fn: Callable[[], Any]) -> Any:
+        """Run ``fn()`` on the world thread (the only one that touches the scene) and wait for it.
+
+        Jobs never overlap: only the simulation task calls this, one job at a time. The
+        notifications the job set off are written when it ends (before its caller answers).
+        Before :meth:`start` (a replay, a test) it simply runs here.
+        """
+        if self._world is None:
+            return self._job_body(fn)
+        job = self._job = self._world.submit(self._job_body, fn)
+        try:
+            return await asyncio.wrap_future(job)
+        finally:
+            if job.done():  # not when the caller was cancelled mid-job: stop() waits for it
+                self._deliver()
+
+    def _job_body(self, fn: Callable[[], Any]) -> Any:
+        try:
+            return fn()
+        finally:  # what it set off (a cancelled goal) is sent before its answer
+            self._flush()
+            self._note_status()
+
+    async def _world_idle(self) -> None:
+        """Wait until the world thread has finished its job, if it has one."""
+        job = self._job
+        if job is not None and not job.done():
+            try:
+                await asyncio.wrap_future(job)
+            except BaseException:  # noqa: BLE001 - its own caller reported what went wrong
+                pass
+
+    def _note_status(self) -> None:
+        """Keep what ``status`` says of the world (read while the world thread works)."""
+        scene = self.scene
+        self.world_status = {"scene": scene.name, "frame": scene.frame, "time": scene.time,
+                             "state_hash": scene.state_hash()}  # fmt: skip
 
     # -- commands ------------------------------------------------------------------------------
 
@@ -215,11 +288,17 @@ class Server:
         return command
 
     async def _apply(self, command: Command) -> None:
+        if command.session.gone:  # its client left (or was dropped) after queueing it
+            self.forget(command.session)
+            return
+        before = self.world_status  # the world as this command finds it
         frame = self.scene.frame
+        fn = command.method.fn
         try:
-            result = command.method.fn(self, command.session, **command.params)
-            if inspect.isawaitable(result):
-                result = await result
+            if inspect.iscoroutinefunction(fn):  # step: hands its frames to the world thread itself
+                result = await fn(self, command.session, **command.params)
+            else:
+                result = await self.in_world(functools.partial(fn, self, command.session, **command.params))
         except RPCError as exc:
             error = exc
         except KeyError as exc:  # unknown entity names, with suggestions
@@ -234,13 +313,23 @@ class Server:
         if command.method.name not in READ_ONLY:
             self._changed = True  # the next step saves a new rollback checkpoint first
         if self.recorder is not None:
-            self.recorder.command(frame, command.method.name, command.params, error and error.message)
-        self._flush()  # what the command set off (a cancelled goal), before its answer
+            self._record(before, frame, command, error)
+        self._deliver()  # what the command set off (a cancelled goal), before its answer
         try:
             command.done(result if error is None else None, error)
         except Exception:  # answering one client must never stop the simulation for all
             self.log(f"answering {command.method.name} failed:\n{traceback.format_exc()}")
             command.session.abort()
+
+    def _record(self, before: dict[str, Any], frame: int, command: Command, error: RPCError | None) -> None:
+        """Log an applied command; at the recording's size limit, end it as the world was before it."""
+        recorder = self.recorder
+        assert recorder is not None
+        if recorder.command(frame, command.method.name, command.params, error and error.message):
+            return
+        recorder.close(before["frame"], before["state_hash"], note=recorder.full_note)
+        self.recorder = None
+        self.log(f"{recorder.full_note} at frame {before['frame']} ({recorder.path}); serving on unrecorded")
 
     # -- the simulation ------------------------------------------------------------------------
 
@@ -256,7 +345,7 @@ class Server:
     def set_paused(self, paused: bool) -> None:
         """Pause or resume; a resumed simulation steps at once, then every 1/60 s."""
         self.paused = paused
-        self._restart_clock(asyncio.get_running_loop().time())
+        self._restart_clock(time.monotonic())  # the event loop's clock (runs on the world thread too)
 
     def _restart_clock(self, now: float) -> None:
         """The wall time from ``now`` on counts (not the time spent paused); a step is due now."""
@@ -282,48 +371,53 @@ class Server:
         loop = asyncio.get_running_loop()
         wakeup = self._wakeup
         assert wakeup is not None
-        self._restart_clock(loop.time())
+        self._restart_clock(time.monotonic())
         clock = self.clock
         while True:
-            now = loop.time()
+            now = time.monotonic()
             elapsed, self._last_tick = now - self._last_tick, now
             ticked = False
             if not self.paused:
                 steps = clock.advance(elapsed)  # the time it cannot catch up with is dropped
                 ticked = steps > 0
                 for _ in range(steps):
-                    if self.paused or not self._try_step():  # a command or a failed step paused it
+                    if self.paused or not await self._try_step():  # a command or a failed step paused it
                         break
             elif self.window is not None and now >= self._next_draw:
                 ticked = True  # paused: the window still draws at 60 Hz
             if ticked and self.window is not None:
                 self._next_draw = now + clock.dt
                 self._draw()
-            budget = time.perf_counter() + COMMAND_BUDGET
+            # commands in a chunk as long as the last frame took (at least COMMAND_BUDGET):
+            # a pile of them goes in a few frames, and the world still gets half the time
+            budget = time.perf_counter() + max(COMMAND_BUDGET, self.frame_cost)
             while self._queues:
                 await self._apply(self._next_command())
                 if time.perf_counter() > budget:
                     break
             if self._queues:
-                await asyncio.sleep(0)  # let the sockets in before the next batch
+                await asyncio.sleep(0)  # let the sockets in before the next chunk
                 continue
             wakeup.clear()
             if not self.paused:
-                timer = loop.call_at(loop.time() + clock.until_next_step(), wakeup.set)
+                timer = loop.call_later(clock.until_next_step(), wakeup.set)
             elif self.window is not None:
-                timer = loop.call_at(self._next_draw, wakeup.set)
+                timer = loop.call_later(max(0.0, self._next_draw - time.monotonic()), wakeup.set)
             else:
                 timer = None
             await wakeup.wait()
             if timer is not None:
                 timer.cancel()
 
-    def _try_step(self) -> bool:
-        """One real-time step; False (and paused) if it failed."""
+    async def _try_step(self) -> bool:
+        """One real-time step on the world thread; False (and paused) if it failed."""
+        started = time.perf_counter()
         try:
-            self._step_frame()
+            await self.in_world(self._step_frame)
         except RPCError:
             return False
+        finally:
+            self.frame_cost = time.perf_counter() - started
         return True
 
     def _step_frame(self) -> None:
@@ -341,12 +435,8 @@ class Server:
             message = f"step {failed + 1} failed ({cause})" + (
                 "; the world is as before it, paused" if rolled_back else "; paused"
             )
-            for session in list(self.sessions):
-                if session.authenticated:
-                    session.send_event(
-                        "simulation.error",
-                        {"frame": self.scene.frame, "message": message, "rolled_back": rolled_back},
-                    )
+            params = {"frame": self.scene.frame, "message": message, "rolled_back": rolled_back}
+            self._outbox += [(s, "simulation.error", params) for s in tuple(self.sessions) if s.authenticated]
             raise RPCError(rpc.INTERNAL_ERROR, f"the simulation failed: {message}") from None
         self.steps_run += 1
         self._flush()
@@ -403,14 +493,25 @@ class Server:
         return True
 
     async def step_frames(self, n: int) -> None:
-        """Advance ``n`` frames (the ``step`` method), letting the sockets in now and then.
+        """Advance ``n`` frames (the ``step`` method) on the world thread, a slice at a time.
 
         Queued commands wait until all ``n`` are done: they land after the last one.
+        Between slices (about :data:`STEP_SLICE` s each) the loop may stop the server.
         """
-        for k in range(n):
+        left = n
+        while left > 0:
+            left -= await self.in_world(functools.partial(self._step_slice, left))
+
+    def _step_slice(self, most: int) -> int:
+        """Frames, at most ``most``, for about STEP_SLICE s (at least one); returns how many."""
+        until = time.perf_counter() + STEP_SLICE
+        done = 0
+        while done < most:
             self._step_frame()
-            if k % 30 == 29:
-                await asyncio.sleep(0)
+            done += 1
+            if time.perf_counter() > until:
+                break
+        return done
 
     def _draw(self) -> None:
         window = self.window
@@ -457,7 +558,11 @@ class Server:
         return grabs
 
     def _flush(self) -> None:
-        """Turn the scene's events since the last flush (and grab changes) into notifications."""
+        """Turn the scene's events since the last flush (and grab changes) into notifications.
+
+        Runs on the world thread: they are stamped with the frame now and queued for
+        :meth:`_deliver`, which writes them from the event loop's thread.
+        """
         grabs = self._read_grabs()
         events: list[tuple[str, Any]] = [(e.kind, e) for e in self._pending]
         self._pending.clear()
@@ -470,16 +575,22 @@ class Server:
             return
         scene = self.scene
         stamp = {"frame": scene.frame, "time": scene.time}
+        sessions = tuple(self.sessions)  # one copy: the event loop's thread adds and drops them
         for kind, event in events:
             owner = None
             if kind in ("goal.done", "goal.failed"):
                 owner = self.goal_owners.pop(event.goal, None)
-            to = [s for s in self.sessions if kind in s.subscriptions or s is owner]
+            to = [s for s in sessions if kind in s.subscriptions or s is owner]
             if not to:
                 continue
             params = {**self._describe(kind, event), **stamp}
-            for session in to:
-                session.send_event(kind, params)
+            self._outbox += [(session, kind, params) for session in to]
+
+    def _deliver(self) -> None:
+        """Write the notifications the world thread queued (on the event loop's thread)."""
+        out, self._outbox = self._outbox, []
+        for session, kind, params in out:
+            session.send_event(kind, params)
 
     def _describe(self, kind: str, event: Any) -> dict[str, Any]:
         name = self.scene.name_of

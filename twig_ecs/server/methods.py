@@ -8,16 +8,18 @@ that runs on the simulation's own loop, between steps. Checks that need the worl
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from twig_ecs.arguments import ArgumentError, Param, check_plain
 from twig_ecs.arguments import bind as bind_arguments
-from twig_ecs.character import CharacterHandle
+from twig_ecs.character import START_COMMANDS, CharacterHandle
 from twig_ecs.goals import GoalSchema
 from twig_ecs.plugins import builtin_goal_schemas
-from twig_ecs.server.protocol import INVALID_PARAMS, NOT_NOW, RPCError
+from twig_ecs.server.protocol import BROKEN_WORLD, INVALID_PARAMS, NOT_NOW, RPCError
+from twig_ecs.spawn import crowding
 
 if TYPE_CHECKING:
     from twig_ecs.server.core import Server, Session
@@ -26,6 +28,9 @@ if TYPE_CHECKING:
 MAX_STEP = 3600
 #: Bodies beyond which ``spawn`` is refused: the steps (and so every answer) stay quick.
 MAX_SERVED_BODIES = 2000
+#: Most bodies that may already reach into the box a spawned body would fill: a spawn into a
+#: pile is refused (1000 humanoids at one spot step at under 1 frame/s; four are a scuffle).
+MAX_CROWD = 4
 #: Event kinds a client can subscribe to.
 EVENT_KINDS = ("goal.done", "goal.failed", "behavior.changed", "pain", "contact", "grab", "release")
 
@@ -103,6 +108,25 @@ def entity_state(handle) -> dict[str, Any]:
 # -- the methods ---------------------------------------------------------------------------------
 
 
+def _non_finite(state: dict[str, Any]) -> list[str]:
+    """The fields of an entity's state that hold NaN or infinity (a body whose simulation broke down)."""
+    bad = []
+    for key, value in state.items():
+        values = value if isinstance(value, list) else [value]
+        if any(isinstance(v, float) and not math.isfinite(v) for v in values):
+            bad.append(key)
+    return bad
+
+
+def _broken(names: dict[str, list[str]]) -> RPCError:
+    """The error for entities with non-finite states: which, and what to do."""
+    shown = "; ".join(f"'{n}' ({', '.join(fields)})" for n, fields in list(names.items())[:5])
+    more = f" and {len(names) - 5} more" if len(names) > 5 else ""
+    return RPCError(BROKEN_WORLD, f"the world has non-finite positions (NaN or infinity): {shown}{more}; "
+                                  "their simulation broke down - remove them, or restart the server "
+                                  "(twig validate the scene's templates)")  # fmt: skip
+
+
 def list_entities(server: Server, session: Session) -> list[dict[str, Any]]:
     scene = server.scene
     out = []
@@ -113,25 +137,27 @@ def list_entities(server: Server, session: Session) -> list[dict[str, Any]]:
 
 
 def get_state(server: Server, session: Session, name: str | None) -> dict[str, Any]:
+    """One entity's state, or every entity's; error BROKEN_WORLD naming those holding NaN."""
     scene = server.scene
+    names = [name] if name is not None else scene.entity_names
+    states = {n: entity_state(_entity(server, n)) for n in names}
+    broken = {n: fields for n, state in states.items() if (fields := _non_finite(state))}
+    if broken:
+        raise _broken(broken)
     if name is not None:
-        return entity_state(_entity(server, name))
-    return {
-        "frame": scene.frame,
-        "time": scene.time,
-        "paused": server.paused,
-        "entities": {n: entity_state(scene.entity(n)) for n in scene.entity_names},
-    }
+        return states[name]
+    return {"frame": scene.frame, "time": scene.time, "paused": server.paused, "entities": states}
 
 
 def status(server: Server, session: Session) -> dict[str, Any]:
-    scene = server.scene
+    """Answered at once: the world as of the end of the last step or command (never waits for one)."""
+    world = server.world_status
     return {
-        "scene": scene.name,
-        "frame": scene.frame,
-        "time": scene.time,
+        "scene": world["scene"],
+        "frame": world["frame"],
+        "time": world["time"],
         "paused": server.paused,
-        "state_hash": scene.state_hash(),
+        "state_hash": world["state_hash"],
         "clients": len(server.sessions),
         "subscriptions": sorted(session.subscriptions),
     }
@@ -205,15 +231,59 @@ def spawn(
     server: Server, session: Session, name: str | None, template: str, position, facing: float, **extra
 ) -> dict[str, Any]:
     params = {k: v for k, v in extra.items() if v is not None}
-    bodies = server.scene.state.bodies.count
+    scene = server.scene
+    _check_character(params.get("character"))
+    bodies = scene.state.bodies.count
     if bodies >= MAX_SERVED_BODIES:
         message = (f"spawn refused: the scene has {bodies} bodies and a server spawns up to "
                    f"{MAX_SERVED_BODIES} (more would slow every step); remove some first")  # fmt: skip
         raise RPCError(NOT_NOW, message)
-    handle = server.scene.spawn(template, name=name, position=position, facing=facing, **params)
+    body = scene.library.template(template)  # KeyError (with suggestions) if unknown
+    scale = float(params.get("height") or body.height) / body.reference_height
+    crowd = crowding(scene, body, scale, position, facing)
+    if len(crowd) >= MAX_CROWD:
+        names = [scene.name_of(int(scene.state.bodies.entity[b])) or str(b) for b in crowd]
+        message = (f"spawn refused: at {_point(position)} the new body would overlap {len(crowd)} bodies "
+                   f"({_listed(names, 5)}); at most {MAX_CROWD - 1} may reach into its space (MAX_CROWD: "
+                   f"a pile makes every step slow) - spawn it somewhere free")  # fmt: skip
+        raise RPCError(NOT_NOW, message)
+    handle = scene.spawn(template, name=name, position=position, facing=facing, **params)
     if isinstance(handle, CharacterHandle) and not server.autonomous:
         handle.autonomous = False
     return {"name": handle.name}
+
+
+def _point(position) -> str:
+    return "[" + ", ".join(f"{float(x):g}" for x in position) + "]"
+
+
+def _check_character(character: Any) -> None:
+    """``character`` of a spawn: true/false, or a mapping of its settings (``max_speed``) only.
+
+    A scene file's starting commands (walk, look_at...) are refused, not ignored: over the
+    server they are methods of their own, called once the body is there.
+    """
+    if not isinstance(character, dict):
+        return  # true / false / null: the spawn's own checks
+    extra = [k for k in character if k != "max_speed"]
+    if not extra:
+        return
+    commands = [k for k in extra if k in START_COMMANDS]
+    unknown = [k for k in extra if k not in START_COMMANDS]
+    parts = []
+    if unknown:
+        parts.append(f"unknown key(s) {_listed(unknown)}")
+    if commands:
+        parts.append(f"{_listed(commands)}: starting commands of scene files, which spawn does not run - "
+                     "spawn the body, then call the methods (walk, look_at, reach, gesture, grab, sit) "
+                     "with its name")  # fmt: skip
+    raise _bad(f"spawn: character {'; '.join(parts)} (here character may hold only 'max_speed')")
+
+
+def _listed(names: list[str], most: int = 8) -> str:
+    """Names quoted and shortened, the first ``most`` of them: an error message stays short."""
+    more = f" and {len(names) - most} more" if len(names) > most else ""
+    return ", ".join(f"'{n[:40]}'" for n in names[:most]) + more
 
 
 def remove(server: Server, session: Session, name: str) -> None:
@@ -290,7 +360,7 @@ _ALL = (
         "Stop receiving these event kinds.",
         queued=False,
     ),
-    Method("status", (), status, "Scene name, frame, time, paused, state hash, clients."),
+    Method("status", (), status, "Scene name, frame, time, paused, state hash, clients.", queued=False),
     Method("list_entities", (), list_entities, "Every entity: name, template, character or not."),
     Method(
         "get_state",

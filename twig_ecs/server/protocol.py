@@ -22,6 +22,8 @@ INTERNAL_ERROR = -32603
 NOT_NOW = -32001
 #: A token is needed and the client has not sent it (or sent a wrong one).
 UNAUTHORIZED = -32002
+#: The world holds non-finite numbers (NaN, infinity) where an answer would report them.
+BROKEN_WORLD = -32003
 
 #: The longest request line accepted (bytes, newline excluded).
 MAX_LINE = 1 << 20
@@ -54,8 +56,28 @@ def loads(line: bytes | str) -> Any:
 
 
 def dumps(obj: Any) -> bytes:
-    """One JSON line (compact, ASCII-safe, NaN refused)."""
+    """One JSON line (compact, ASCII-safe, NaN refused: ValueError)."""
     return json.dumps(obj, separators=(",", ":"), allow_nan=False).encode() + b"\n"
+
+
+def finite(obj: Any) -> Any:
+    """``obj`` with every non-finite float (NaN, infinity) as None: a notification must go out."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [finite(v) for v in obj]
+    return obj
+
+
+def unwritable(exc: Exception) -> RPCError:
+    """The error to answer in place of a result that ``dumps`` refused (NaN in it: a broken world)."""
+    if isinstance(exc, ValueError):  # json: "Out of range float values are not JSON compliant"
+        message = ("the answer holds non-finite numbers (NaN or infinity), which JSON cannot carry: part "
+                   "of the world has broken down (get_state names the bodies)")  # fmt: skip
+        return RPCError(BROKEN_WORLD, message)
+    return RPCError(INTERNAL_ERROR, f"internal error: the answer is not JSON ({exc})")
 
 
 @dataclass(slots=True)

@@ -20,6 +20,13 @@ user passes ``--trust``; frames past :data:`MAX_FRAMES` are refused.
 Only commands that reached the simulation are recorded: requests refused while being
 checked (bad JSON, bad parameters) never touch the world. ``pause``, ``resume`` and
 ``step`` are clock controls: their effect is in the frame numbers.
+
+A recording is bounded: a command the world refused keeps its parameters only up to
+:data:`MAX_FAILED_PARAMS` bytes (longer ones are written as ``"params": null,
+"params_cut": BYTES``; a replay skips them - they changed nothing), and the whole file
+stops at its size limit (:data:`MAX_RECORD_BYTES`, ``twig serve --record-limit``): the
+recorder then writes the end line for the world as it was before the command that did
+not fit, and the server goes on unrecorded.
 """
 
 from __future__ import annotations
@@ -42,6 +49,14 @@ FORMAT_VERSION = 1
 MAX_FRAMES = 24 * 3600 * 60
 #: Methods whose effect on the world is only the passing of time (already in the frame numbers).
 CLOCK_METHODS = ("pause", "resume", "step")
+#: Default size limit of a recording (bytes, header included).
+MAX_RECORD_BYTES = 256 << 20
+#: Longest parameters (bytes of JSON) a failed command keeps in a recording.
+MAX_FAILED_PARAMS = 1024
+#: Longest error message a recording keeps (characters).
+MAX_RECORDED_ERROR = 1000
+#: Room kept for the end line when a recording fills up (bytes).
+_END_ROOM = 400
 
 
 class ReplayError(TwigError):
@@ -81,10 +96,17 @@ def scene_files(source: str | Path, content: list[str] | tuple[str, ...] = ()) -
 
 
 class Recorder:
-    """Writes a replay file as a server applies commands (see the module docstring)."""
+    """Writes a replay file as a server applies commands (see the module docstring).
+
+    ``limit``: the most bytes the file may hold; :meth:`command` returns False (and writes
+    nothing) for a command that would pass it, and the server then closes the recording.
+    """
 
     def __init__(self, path: str | Path, source: str | Path, seed: int, content: list | tuple = (),
-                 autonomous: bool = True) -> None:  # fmt: skip
+                 autonomous: bool = True, limit: int = MAX_RECORD_BYTES) -> None:  # fmt: skip
+        self.path = Path(path)
+        self.limit = limit
+        self.size = 0
         header = {
             "twig_replay": FORMAT_VERSION,
             "scene": str(source),
@@ -93,22 +115,46 @@ class Recorder:
             "autonomous": autonomous,
             "files": scene_files(source, content),
         }
+        first = json.dumps(header) + "\n"
+        if len(first.encode()) + _END_ROOM > limit:
+            raise ReplayError(f"cannot record to '{path}': the scene's files alone are "
+                              f"{len(first) / (1 << 20):.1f} MiB, over the recording's limit of "
+                              f"{limit / (1 << 20):g} MiB (--record-limit)")  # fmt: skip
         try:
             self.file: IO[str] | None = open(path, "w", encoding="utf-8")  # noqa: SIM115 - open until close()
         except OSError as exc:
             raise ReplayError(f"cannot write replay file '{path}': {exc.strerror}") from None
         self.commands = 0
-        self._write(header)
+        self._write(first)
 
-    def _write(self, obj: dict[str, Any]) -> None:
+    def _write(self, line: str) -> None:
         if self.file is not None:
-            self.file.write(json.dumps(obj) + "\n")
+            self.file.write(line)
             self.file.flush()  # a crash keeps what was applied so far
+            self.size += len(line.encode())
 
-    def command(self, frame: int, method: str, params: dict[str, Any], error: str | None) -> None:
-        """One applied command: the frame it landed at, its checked parameters, its error."""
+    def command(self, frame: int, method: str, params: dict[str, Any], error: str | None) -> bool:
+        """One applied command: the frame it landed at, its checked parameters, its error.
+
+        A failed command's parameters longer than MAX_FAILED_PARAMS are left out. False,
+        with nothing written, when the line would take the file past its limit.
+        """
+        error = None if error is None else error[:MAX_RECORDED_ERROR]
+        record: dict[str, Any] = {"frame": frame, "method": method, "params": _jsonable(params),
+                                  "error": error}  # fmt: skip
+        if error is not None and (size := len(json.dumps(record["params"]))) > MAX_FAILED_PARAMS:
+            record["params"], record["params_cut"] = None, size  # it changed nothing: its error is enough
+        line = json.dumps(record) + "\n"
+        if self.size + len(line.encode()) + _END_ROOM > self.limit:
+            return False
         self.commands += 1
-        self._write({"frame": frame, "method": method, "params": _jsonable(params), "error": error})
+        self._write(line)
+        return True
+
+    @property
+    def full_note(self) -> str:
+        """The end line's note when the file reached its limit."""
+        return f"recording stopped: the file reached its limit of {self.limit / (1 << 20):g} MiB"
 
     def close(self, frame: int, state_hash: str, note: str | None = None) -> None:
         """The end of the session: the final frame and state hash (once)."""
@@ -117,7 +163,7 @@ class Recorder:
         end: dict[str, Any] = {"end": frame, "state_hash": state_hash}
         if note:
             end["note"] = note
-        self._write(end)
+        self._write(json.dumps(end) + "\n")
         self.file.close()
         self.file = None
 
@@ -256,7 +302,7 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
             method = find_method(item["method"], scene)
             if method is None:
                 raise ReplayError(f"unknown method '{item['method']}' in the replay file")
-            if method.name in CLOCK_METHODS:
+            if method.name in CLOCK_METHODS or item.get("params_cut"):  # a cut one failed: it changed nothing
                 continue
             error = None
             try:

@@ -72,6 +72,11 @@ class Session:
             self.server.log(f"client {self.peer} is {unsent >> 20} MiB behind: disconnected")
             self.abort()
 
+    @property
+    def gone(self) -> bool:
+        """Has the connection ended (closed here, or found broken when writing to it)?"""
+        return self.closed or self.writer.transport.is_closing()
+
     def abort(self) -> None:
         if not self.closed:
             self.closed = True
@@ -88,6 +93,10 @@ class Session:
     async def serve(self) -> None:
         """Read lines until the client goes; each is handled without waiting for its answer."""
         lines = rpc.LineReader(self.reader)
+        loop = asyncio.get_running_loop()
+        # a connection that has not authenticated by then is closed, whatever it sends meanwhile
+        # (empty lines, comments): it does not hold a socket for ever
+        auth_deadline = loop.time() + self.server.auth_timeout
         try:
             await self.greet()
             while not self.closed and not self.ending:
@@ -96,9 +105,9 @@ class Session:
                 await self.inflight.acquire()
                 if self.authenticated:
                     line = await lines.next()
-                else:  # an idle connection that never authenticates does not hold a socket for ever
+                else:
                     try:
-                        line = await asyncio.wait_for(lines.next(), self.server.auth_timeout)
+                        line = await asyncio.wait_for(lines.next(), max(0.0, auth_deadline - loop.time()))
                     except TimeoutError:
                         self.server.log(f"client {self.peer} sent no token in {self.server.auth_timeout:g} s")
                         break
@@ -176,14 +185,30 @@ def _too_big(obj: Any, size: int) -> Any:
     return rpc.error_response(obj.get("id") if isinstance(obj, dict) else None, error)
 
 
+def _writable(answer: Any) -> Any:
+    """``answer`` if it can be written as JSON, else the error answer that says why not."""
+    try:
+        rpc.dumps(answer)
+    except (ValueError, TypeError) as exc:
+        return rpc.error_response(answer.get("id") if isinstance(answer, dict) else None, rpc.unwritable(exc))
+    return answer
+
+
 class JsonSession(Session):
     """A JSON-RPC 2.0 client: one request (or batch) per line, answers by id."""
 
     def send_event(self, kind: str, params: dict[str, Any]) -> None:
-        self.write(rpc.dumps(rpc.notification(kind, params)))
+        try:
+            data = rpc.dumps(rpc.notification(kind, params))
+        except ValueError:  # NaN from a broken world: sent as null rather than not at all
+            data = rpc.dumps(rpc.notification(kind, rpc.finite(params)))
+        self.write(data)
 
     def _send(self, obj: Any) -> None:
-        data = rpc.dumps(obj)
+        try:
+            data = rpc.dumps(obj)
+        except (ValueError, TypeError):  # never broken JSON, never a dropped client: an error in its place
+            data = rpc.dumps([_writable(a) for a in obj] if isinstance(obj, list) else _writable(obj))
         if len(data) > MAX_ANSWER:  # one answer must not swamp the client (nor the server's memory)
             data = rpc.dumps(_too_big(obj, len(data)))
         self.write(data)

@@ -146,24 +146,32 @@ class TwigSession(Session):
         self.write(GREETING)
 
     def send_event(self, kind: str, params: dict[str, Any]) -> None:
-        self.write(f"event {kind} {_json(params)}\n".encode())
+        try:
+            text = _json(params)
+        except ValueError:  # NaN from a broken world: sent as null rather than not at all
+            text = _json(rpc.finite(params))
+        self.write(f"event {kind} {text}\n".encode())
 
     def _answer(self, result: Any, error: RPCError | None) -> None:
+        text = None
+        if error is None and result is not None:
+            try:
+                text = _json(result)
+            except (ValueError, TypeError) as exc:  # never broken JSON: the error in its place
+                error = rpc.unwritable(exc)
         if error is not None:
             message = " ".join(error.message.split())
             # backslashreplace: a lone surrogate a client sent (or a name holding one) comes back
             # escaped instead of breaking the encoder
             self.write(f"error {error.code} {message}\n".encode(errors="backslashreplace"))
-        elif result is None:
+        elif text is None:
             self.write(b"ok\n")
+        elif len(text) > MAX_ANSWER:
+            size = f"{len(text) / (1 << 20):.1f} MiB"
+            message = f"error {rpc.INTERNAL_ERROR} the answer is {size}, over the limit: ask for less\n"
+            self.write(message.encode())
         else:
-            text = _json(result)
-            if len(text) > MAX_ANSWER:
-                size = f"{len(text) / (1 << 20):.1f} MiB"
-                text = f"error {rpc.INTERNAL_ERROR} the answer is {size}, over the limit: ask for less"
-                self.write(f"{text}\n".encode())
-            else:
-                self.write(f"ok {text}\n".encode())
+            self.write(f"ok {text}\n".encode())
         self.inflight.release()
 
     def handle_too_long(self) -> None:
