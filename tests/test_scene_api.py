@@ -143,3 +143,15 @@ def test_twig_run_prints_a_json_report_matching_the_python_api():
     with Scene.load("schoolyard") as scene:
         scene.run(2.0)
         assert report["state_hash"] == scene.state_hash()
+
+
+def test_spawn_starts_a_character_doing_its_starting_commands(empty_scene):
+    """`character: {walk: ...}` in Scene.spawn does what it does in a scene file (it was ignored)."""
+    from twig_ecs.errors import TwigError
+
+    ann = empty_scene.spawn("humanoid", name="ann", character={"walk": [0.0, 0.0, 1.0]})
+    empty_scene.run(2.0)
+    assert ann.position[2] > 1.0, "it walked off along +z"
+    with pytest.raises(TwigError, match="no entity named 'nobody'"):
+        empty_scene.spawn("humanoid", name="bob", position=(3, 0, 0), character={"look_at": "nobody"})
+    assert "bob" not in empty_scene.entity_names, "no half-made character is left behind"

@@ -200,8 +200,10 @@ class Scene:
         """Spawn a body from a template by name; returns its handle.
 
         ``params``: ``height`` (m), ``mass`` (kg, total), ``color`` ([r, g, b]),
-        ``pain`` ({threshold, half_life, gain} or False), ``damping`` ({air, ground}).
-        The name defaults to ``template`` plus a number; it must be unique.
+        ``pain`` ({threshold, half_life, gain} or False), ``damping`` ({air, ground}),
+        ``character`` (True, or a mapping of ``max_speed`` and the scene file's starting
+        commands - ``walk``, ``look_at``... - which it then starts doing). The name
+        defaults to ``template`` plus a number; it must be unique.
         """
         if name is None:
             name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self._names)
@@ -210,7 +212,14 @@ class Scene:
         raw = YDict({"name": name, "body": template, "position": list(position), "facing": facing, **params})
         raw.file = "<spawn>"
         spec = read_entity(raw, f"spawn({name!r})", self.library)
-        return self._spawn_spec(spec)
+        handle = self._spawn_spec(spec)
+        if spec.character is not None and spec.character.start:
+            try:
+                handle.apply(spec.character.start)
+            except TwigError:  # e.g. look_at an entity that does not exist: no half-made character
+                self.remove(spec.name)
+                raise
+        return handle
 
     def remove(self, name: str) -> None:
         """Remove a body (its nodes, links, limits and any grab joints touching it).
