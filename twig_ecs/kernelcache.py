@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from twig_ecs.threads import configure_threads
+
 _PACKAGE = Path(__file__).resolve().parent
 #: Cache folders of other kernel versions kept besides the current one.
 KEEP_OLD = 3
@@ -86,6 +88,7 @@ def configure_cache() -> Path | None:
     if _configured:
         return _folder
     _configured = True
+    configure_threads()  # before numba loads its OpenMP pool: idle threads sleep (twig_ecs.threads)
     if os.environ.get("NUMBA_CACHE_DIR") or jit_disabled():
         return None
     version = kernel_version()

@@ -1,0 +1,126 @@
+"""Step times on a busy machine and a quiet one: numba's threads against one thread.
+
+Users' machines are never quiet. This runs ``twig bench`` cases in fresh processes, in
+turn (alternating, so every setting meets the same moments of the machine's load), under
+each thread setting, once with nothing beside it and once with ``--burners`` CPU-bound
+processes beside it, and prints the median step times and their ratio to one thread:
+
+    python benchmarks/busy_machine.py                          # approach 100 and 1000, crowd 300
+    python benchmarks/busy_machine.py --cases crowd --sizes 300 --rounds 5 --json
+    python benchmarks/busy_machine.py --settings default,one,spin   # spin: libgomp's old busy-wait
+
+Settings: ``default`` is what a user gets (twig's own threading choice), ``one`` is
+``NUMBA_NUM_THREADS=1``; ``spin`` is the default with libgomp's active waiting forced back
+on (``OMP_WAIT_POLICY=ACTIVE``), the behaviour before twig chose a passive wait. The
+target (issue 33): with two burners, no case is more than 1.15x its one-thread time, and
+on a quiet machine threads still help where they helped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+SETTINGS = {
+    "default": {},
+    "one": {"NUMBA_NUM_THREADS": "1"},
+    "spin": {"OMP_WAIT_POLICY": "ACTIVE"},
+    "passive": {"OMP_WAIT_POLICY": "PASSIVE"},
+}
+
+
+def burn(stop: multiprocessing.Event) -> None:  # type: ignore[valid-type]
+    """A CPU-bound process: what another program on the user's machine does."""
+    x = 0
+    while not stop.is_set():
+        for _ in range(100_000):
+            x = (x * 1103515245 + 12345) & 0x7FFFFFFF
+
+
+def bench_once(case: str, size: int, steps: int, setting: str) -> float:
+    """Median ms per step of one case in a fresh process under one thread setting."""
+    env = {**os.environ, **SETTINGS[setting]}
+    command = [sys.executable, "-m", "twig_ecs", "bench", "--cases", case, "--sizes", str(size),
+               "--steps", str(steps), "--warmup", "30", "--no-mujoco", "--json"]  # fmt: skip
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=1800, check=True)
+    (result,) = json.loads(done.stdout)["cases"]
+    return result["median_ms"]
+
+
+def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, steps: int, burners: int) -> dict:
+    """{case: {setting: [median ms per round]}}, rounds alternating the settings."""
+    stop = multiprocessing.Event()
+    procs = [multiprocessing.Process(target=burn, args=(stop,), daemon=True) for _ in range(burners)]
+    for p in procs:
+        p.start()
+    try:
+        out: dict = {}
+        for case, size in cases:
+            label = f"{case} {size}"
+            times: dict[str, list[float]] = {s: [] for s in settings}
+            for r in range(rounds):
+                for setting in settings if r % 2 == 0 else reversed(settings):
+                    ms = bench_once(case, size, steps, setting)
+                    times[setting].append(ms)
+                    print(f"  {label:14s} {setting:8s} round {r + 1}/{rounds}: {ms:8.2f} ms/step "
+                          f"(load {os.getloadavg()[0]:.1f})", file=sys.stderr, flush=True)  # fmt: skip
+            out[label] = times
+        return out
+    finally:
+        stop.set()
+        for p in procs:
+            p.join(timeout=5)
+
+
+def report(title: str, results: dict, settings: list[str]) -> None:
+    """A table: median of the rounds' medians, and the ratio to one thread."""
+    print(f"\n{title}")
+    print(f"{'case':16s}" + "".join(f"{s:>12s}" for s in settings) + "".join(
+        f"{s + '/one':>13s}" for s in settings if s != "one"))  # fmt: skip
+    for label, times in results.items():
+        med = {s: statistics.median(v) for s, v in times.items()}
+        ratios = "".join(f"{med[s] / med['one']:13.2f}" for s in settings if s != "one" and "one" in med)
+        print(f"{label:16s}" + "".join(f"{med[s]:12.2f}" for s in settings) + ratios)
+
+
+def main() -> None:
+    """Parse the command line, measure quiet and busy, print (or dump JSON)."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", default="approach,approach,crowd", help="bench cases, paired with --sizes")
+    parser.add_argument("--sizes", default="100,1000,300", help="one size per case")
+    parser.add_argument("--settings", default="default,one", help=f"from {', '.join(SETTINGS)}")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds per setting")
+    parser.add_argument("--steps", type=int, default=150, help="timed steps per run")
+    parser.add_argument("--burners", type=int, default=2, help="CPU-bound processes for the busy run")
+    parser.add_argument("--busy-only", action="store_true", help="skip the quiet run")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    args = parser.parse_args()
+    cases = list(zip(args.cases.split(","), (int(s) for s in args.sizes.split(",")), strict=True))
+    settings = args.settings.split(",")
+    unknown = [s for s in settings if s not in SETTINGS]
+    if unknown:
+        parser.error(f"unknown setting(s) {', '.join(unknown)}; known: {', '.join(SETTINGS)}")
+    started = time.time()
+    runs = {}
+    if not args.busy_only:
+        print("quiet (nothing of ours beside it):", file=sys.stderr)
+        runs["quiet"] = measure(cases, settings, args.rounds, args.steps, 0)
+    print(f"busy ({args.burners} CPU-bound processes beside it):", file=sys.stderr)
+    runs["busy"] = measure(cases, settings, args.rounds, args.steps, args.burners)
+    if args.json:
+        print(json.dumps({"cpus": os.cpu_count(), "burners": args.burners, "runs": runs}, indent=1))
+        return
+    for name, results in runs.items():
+        report(f"{name} ({os.cpu_count()} CPUs, median ms/step of {args.rounds} alternating rounds)",
+               results, settings)  # fmt: skip
+    print(f"\n({time.time() - started:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
