@@ -242,10 +242,12 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
         assert [order[p] for p in kept] == sorted(order[p] for p in kept)
 
 
-def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state(monkeypatch):
+def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state(monkeypatch, scenes):
     """A crowd big enough for the threaded passes (a grab joint among them: a body pair that must
     wait its turn) steps to the last bit as on one thread; scenes stepped from other threads at
-    the same time run their passes on one thread (numba's pool takes one caller at a time)."""
+    the same time run their passes on one thread (numba's pool takes one caller at a time) and
+    take turns a step at a time (esper's current world is one per process: Scene.STEP_LOCK).
+    Every scene is closed even when an assertion fails (the ``scenes`` fixture)."""
     import threading
 
     from twig_ecs.bench.cases import crowd
@@ -255,6 +257,7 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
 
     def world() -> Scene:
         scene = crowd(size)
+        scenes.append(scene)
         first = scene.character_handle(int(scene.state.characters.entity[0]))
         scene.spawn("ball", name="toy", position=tuple(first.node("r_hand")))
         first.grab("toy", hand="right")
@@ -279,5 +282,3 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
     for t in steppers:
         t.join()
     assert [s.state_hash() for s in others] == [threaded.state_hash()] * 2
-    for scene in (threaded, alone, *others):
-        scene.close()

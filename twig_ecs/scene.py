@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import itertools
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -42,6 +43,10 @@ from twig_ecs.system import System
 from twig_ecs.trust import trusting
 from twig_ecs.validate import suggest
 from twig_ecs.yamldoc import YDict
+
+#: Held for each step of any scene (and its set-up): esper's current world is one per process,
+#: so scenes stepped from several threads take turns a step at a time.
+STEP_LOCK = threading.RLock()
 
 
 class Scene:
@@ -305,28 +310,39 @@ class Scene:
         changed, the last step's events are dropped, then every system runs once in
         schedule order. ``times``: also append each system's wall seconds to
         ``times[name]`` (``twig bench``); timing a step never changes what it computes.
+
+        Scenes stepped from several threads take turns, a step at a time: esper's
+        current world is one per process, and a step must not find another scene's
+        world made current halfway through.
         """
-        self.activate()
-        if self._installed is None:
-            self._install()
+        with STEP_LOCK:
+            self.activate()
+            if self._installed is None:
+                self._install()
         ensure_compiled()
         state, dt = self.state, self.dt
         for _ in range(n):
-            state.tick_released()
-            if state.colliders_dirty:
-                state.rebuild_colliders()
-            self.bus.next_step()
-            esper.clear_dead_entities()  # entities deleted with deferred delete go now
-            if times is None:
-                for system in self._installed:
-                    system.process(dt)
-            else:
-                clock = time.perf_counter
-                for system in self._installed:
-                    t0 = clock()
-                    system.process(dt)
-                    times.setdefault(system.name, []).append(clock() - t0)
-            self.frame += 1
+            with STEP_LOCK:
+                self._step_once(state, dt, times)
+
+    def _step_once(self, state: PhysicsState, dt: float, times: dict[str, list[float]] | None) -> None:
+        """One step of :meth:`step` (under :data:`STEP_LOCK`)."""
+        self.activate()
+        state.tick_released()
+        if state.colliders_dirty:
+            state.rebuild_colliders()
+        self.bus.next_step()
+        esper.clear_dead_entities()  # entities deleted with deferred delete go now
+        if times is None:
+            for system in self._installed:
+                system.process(dt)
+        else:
+            clock = time.perf_counter
+            for system in self._installed:
+                t0 = clock()
+                system.process(dt)
+                times.setdefault(system.name, []).append(clock() - t0)
+        self.frame += 1
 
     def step_timed(self, times: dict[str, list[float]]) -> float:
         """One :meth:`step`, timing each system into ``times``; returns the step's wall time (s)."""
