@@ -26,6 +26,8 @@ def test_a_goal_returns_its_id_at_once_and_ends_with_goal_done():
         assert goal["behavior"] == "gesture" and isinstance(goal["goal"], int)
         assert twig.get_state(name="parent")["goals"][0]["goal"] == goal["goal"]
         assert twig.next_notification(timeout=0.05) is None  # paused: nothing happens yet
+        with pytest.raises(TimeoutError, match=f"goal {goal['goal']} did not end within 0.05 s"):
+            twig.wait_goal(goal["goal"], timeout=0.05)  # paused: still going - an error, not None
         twig.step(n=40)
         done = twig.wait_goal(goal["goal"], timeout=5)
         assert done is not None and done.kind == "goal.done"

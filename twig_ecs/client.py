@@ -136,9 +136,17 @@ class Client:
 
     def wait_goal(
         self, goal: int, timeout: float | None = None, on_other: Callable[[Notification], None] | None = None
-    ) -> Notification | None:
-        """Wait for goal ``goal``'s ``goal.done`` or ``goal.failed`` notification."""
-        return self.wait_for(_goal_end(goal), timeout, on_other)
+    ) -> Notification:
+        """Wait for goal ``goal``'s ``goal.done`` or ``goal.failed`` notification.
+
+        Raises :class:`TimeoutError` if it has not ended within ``timeout`` seconds (default:
+        the client's timeout, 30 s): a goal still going is not an answer.
+        """
+        limit = self.timeout if timeout is None else timeout
+        note = self.wait_for(_goal_end(goal), limit, on_other)
+        if note is None:
+            raise TimeoutError(f"goal {goal} did not end within {limit:g} s (wait longer: timeout=...)")
+        return note
 
     # -- the socket ------------------------------------------------------------------------
 
@@ -235,12 +243,18 @@ class AsyncClient:
         except TimeoutError:
             return None
 
-    async def wait_goal(self, goal: int, timeout: float | None = None) -> Notification | None:
-        """Wait for goal ``goal``'s end (other notifications are dropped on the way)."""
-        deadline = time.monotonic() + (self.timeout if timeout is None else timeout)
+    async def wait_goal(self, goal: int, timeout: float | None = None) -> Notification:
+        """Wait for goal ``goal``'s end (other notifications are dropped on the way).
+
+        Raises :class:`TimeoutError` if it has not ended within ``timeout`` seconds.
+        """
+        limit = self.timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
         while True:
             note = await self.next_notification(max(0.0, deadline - time.monotonic()))
-            if note is None or _goal_end(goal)(note):
+            if note is None:
+                raise TimeoutError(f"goal {goal} did not end within {limit:g} s (wait longer: timeout=...)")
+            if _goal_end(goal)(note):
                 return note
 
     async def _read_loop(self) -> None:
