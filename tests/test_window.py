@@ -104,3 +104,18 @@ def test_mouse_orbits_pans_and_zooms(key):
         assert not np.allclose(camera.target, target)
     finally:
         window.close()
+
+
+def test_a_display_that_does_not_answer_gives_one_error_line():
+    """A stale DISPLAY (no X server there) was a 29-line NoSuchDisplayException traceback."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "DISPLAY": ":97", "WAYLAND_DISPLAY": ""}
+    done = subprocess.run([sys.executable, "-m", "twig_ecs", "play", "empty"], env=env, capture_output=True,
+                          text=True, timeout=300)  # fmt: skip
+    assert done.returncode == 2
+    lines = [ln for ln in done.stderr.splitlines() if ln.strip() and not ln.startswith("twig: compiling")]
+    assert len(lines) == 1 and lines[0].startswith("error: cannot open a window"), done.stderr
+    assert "DISPLAY=':97'" in lines[0] and "Traceback" not in done.stderr

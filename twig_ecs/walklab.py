@@ -293,8 +293,9 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
         scene.close()
 
 
-def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS) -> str:
-    """Measure everything and write the contact sheet; returns the printed report."""
+def run_lab(sheet: str | Path | None = None, sizes=SIZES, speeds=SPEEDS) -> str:
+    """Measure everything and write the contact sheet where ``sheet`` says (none by default);
+    returns the printed report."""
     rows = table(sizes, speeds)
     uturns = {h: measure_uturn(h) for h in sizes}
     text = format_report(rows, uturns, measure_idle())
@@ -307,14 +308,18 @@ def run_lab(sheet: str | Path | None = "walklab.png", sizes=SIZES, speeds=SPEEDS
 def register_commands(sub) -> None:
     """Add ``twig walklab`` to the CLI's subcommands."""
     p = sub.add_parser("walklab", help="measure the walk per body size and speed beside a person's")
-    p.add_argument("--sheet", default="walklab.png", metavar="FILE.png",
-                   help="side-view contact sheet to write (default walklab.png; '' for none)")  # fmt: skip
+    p.add_argument("--sheet", default=None, metavar="FILE.png",
+                   help="also write a side-view contact sheet to FILE.png (default: none)")  # fmt: skip
     p.set_defaults(func=lambda args: print(run_lab(args.sheet or None)) or 0)
 
 
-def main() -> None:
-    """Run the lab from ``python -m twig_ecs.walklab``."""
-    print(run_lab())
+def main(argv: list[str] | None = None) -> None:
+    """Run the lab from ``python -m twig_ecs.walklab [--sheet FILE.png]`` (no file unless asked)."""
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="python -m twig_ecs.walklab", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--sheet", default=None, metavar="FILE.png", help="also write a contact sheet")
+    print(run_lab(parser.parse_args(argv).sheet))
 
 
 if __name__ == "__main__":

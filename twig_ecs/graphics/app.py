@@ -82,6 +82,19 @@ def load_pyglet_window(headless: bool = False):
     return importlib.import_module("pyglet.window")
 
 
+def _no_display_errors(window_module) -> tuple[type[BaseException], ...]:
+    """pyglet's "cannot connect to the display" exceptions (pyglet.window and the X11 display
+    module each define their own class of that name)."""
+    found = [window_module.NoSuchDisplayException]
+    try:
+        from pyglet.display import xlib
+
+        found.append(xlib.NoSuchDisplayException)
+    except ImportError:  # not on X11 (Windows, macOS)
+        pass
+    return tuple(found)
+
+
 @dataclass
 class Press:
     """A left mouse press: where (window pixels), and the body part or ground point under it."""
@@ -805,6 +818,11 @@ def _window_class(window_module):
                                  config=config, visible=visible, vsync=True)  # fmt: skip
             except (window_module.NoSuchConfigException, pyglet.gl.ContextException) as exc:
                 raise WindowError(f"cannot open an OpenGL 3.3 window: {exc}") from exc
+            except _no_display_errors(window_module) as exc:  # DISPLAY names no X server now
+                raise WindowError(
+                    f"cannot open a window: {exc} (DISPLAY={os.environ.get('DISPLAY', '')!r} is set but no "
+                    "display answers there; unset it or start the X server, or use 'twig render')"
+                ) from None
             self.viewer = viewer
             self.loading = loading
             if viewer is not None:
