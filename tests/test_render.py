@@ -134,3 +134,11 @@ def test_eye_camera_looks_at_its_target(schoolyard):
     np.testing.assert_allclose(camera.eye, [0, 5, 10], atol=1e-9)
     x, y = camera.project(np.array([[0.0, 1.0, 0.0]]), 320, 180)[0]
     assert abs(x - 160) < 1e-6 and abs(y - 90) < 1e-6
+
+
+def test_a_camera_eye_at_negative_x_parses_as_written_in_the_docs(tmp_path, capsys):
+    """`--camera -4.45,1.42,2.78@...` (docs/characters.md) was 'expected one argument'."""
+    out = tmp_path / "shot.png"
+    argv = ["render", "empty", "--seconds", "0.05", "--size", "160x90", "-o", str(out)]
+    assert main([*argv, "--camera", "-4.45,1.42,2.78@-3.72,0.45,5.28"]) == 0
+    assert out.exists() and "wrote" in capsys.readouterr().out

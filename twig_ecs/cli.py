@@ -298,6 +298,7 @@ def _prepare_kernels(args: argparse.Namespace) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``twig`` console script."""
     parser = build_parser()
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv), ("--camera",))
     args, extra = parser.parse_known_args(argv)
     if extra:  # say it in the subcommand's words, not with the top-level usage
         _unknown_arguments(parser, args, extra)
@@ -316,6 +317,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+
+
+def _join_negative_values(argv: list[str], options: tuple[str, ...]) -> list[str]:
+    """``--camera -4.45,1.4,2.8@...`` as ``--camera=-4.45,...``: argparse takes a value that
+    starts with '-' (and is not one plain number) for an option and says "expected one argument"."""
+    out: list[str] = []
+    for arg in argv:
+        if out and out[-1] in options and arg[:1] == "-" and arg[1:2].isdigit():
+            out[-1] = f"{out[-1]}={arg}"
+        else:
+            out.append(arg)
+    return out
 
 
 if __name__ == "__main__":  # pragma: no cover
