@@ -126,7 +126,7 @@ def scene_with_template(links: str, nodes: str | None = None, extra: str = "") -
             "      - {nodes: [a, b]}\n",
             "      a: {at: [0, 0.5, 0], mass: 0}\n      b: {at: [0, 1.0, 0]}\n",
             5,
-            ["templates.stick.nodes.a.mass", "greater than 0"],
+            ["templates.stick.nodes.a.mass", "a number from 1e-06 to 1e+06"],
             id="zero-mass",
         ),
         pytest.param(

@@ -21,3 +21,19 @@ def positive_seconds(text: str) -> float:
     if not 0 < value <= 86400:
         raise argparse.ArgumentTypeError(f"seconds must be > 0 and at most 86400, got {text}")
     return value
+
+
+#: Largest seed: numpy's generators take any whole number >= 0; this one fits 64 bits.
+MAX_SEED = 2**63 - 1
+
+
+def seed_number(text: str) -> int:
+    """An argparse type: a random seed, a whole number from 0 to 2**63 - 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        message = f"expected a whole number (like 0 or 42), got '{text[:40]}'"
+        raise argparse.ArgumentTypeError(message) from None
+    if not 0 <= value <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"a seed is a whole number from 0 to {MAX_SEED}, got {text[:40]}")
+    return value

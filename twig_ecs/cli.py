@@ -6,9 +6,11 @@ import argparse
 import importlib
 import json
 import sys
+import time
 from collections.abc import Sequence
+from typing import TextIO
 
-from twig_ecs.argtypes import positive_seconds, seconds_number  # noqa: F401 - seconds_number: old home
+from twig_ecs.argtypes import positive_seconds, seconds_number, seed_number  # noqa: F401 - seconds_number: old home
 from twig_ecs.errors import TwigError
 from twig_ecs.trust import checking_only, is_trusted, trusting
 
@@ -23,7 +25,7 @@ def _add_scene_args(
         p.add_argument("scene", help=_scene_help())
     else:
         p.add_argument("scene", nargs="?", default=scene_default, help=_scene_help(scene_default))
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=seed_number, default=0, help="random seed, 0 or more (default 0)")
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
     p.add_argument("--count", type=str, default=None, metavar="N",
@@ -66,7 +68,7 @@ def _scene_help(default: str | None = None) -> str:
 def cmd_validate(args: argparse.Namespace) -> int:
     """Check scene and template files; print one line per file."""
     from twig_ecs.library import ContentLibrary, read_document
-    from twig_ecs.scenefile import read_scene
+    from twig_ecs.scenefile import check_span, read_scene
 
     failures = 0
     try:
@@ -82,7 +84,8 @@ def cmd_validate(args: argparse.Namespace) -> int:
                 lib = library.copy()
                 tname = str(doc["template"])
                 lib.add_template(tname, doc)
-                lib.template(tname)
+                template = lib.template(tname)  # as spawned at its default height, too:
+                check_span(template, None, doc, "defaults" if "defaults" in doc else "nodes", "")
                 print(f"ok: {path} (body template '{tname}')")
             else:
                 with checking_only():  # validating runs no plug-in code, trusted or not
@@ -178,7 +181,11 @@ def _replay(args: argparse.Namespace) -> int:
     """Replay a recorded server session (``--replay FILE``); 0 when it ends in the recorded state."""
     from twig_ecs.server.replay import replay
 
-    result = replay(args.replay)
+    progress = ReplayProgress(sys.stderr)
+    try:
+        result = replay(args.replay, progress=progress)
+    finally:
+        progress.done()
     if args.report == "json":
         print(json.dumps(result, indent=2))
     else:
@@ -189,6 +196,38 @@ def _replay(args: argparse.Namespace) -> int:
             diverged = result["diverged"]
             print(f"{diverged} command(s) succeeded or failed unlike the recording", file=sys.stderr)
     return 0 if result["match"] else 1
+
+
+class ReplayProgress:
+    """Says on ``stream`` (stderr) how far a long replay has come: nothing for its first
+    :attr:`QUIET` seconds, then every :attr:`EVERY` seconds - in place on a terminal, as
+    lines in a log. stdout (``--report json``) never sees it."""
+
+    QUIET = 2.0
+    EVERY = 1.0
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream, self.clock = stream, time.monotonic
+        self.started = self.last = self.clock()
+        self.live = bool(getattr(stream, "isatty", lambda: False)())
+        self.shown = False
+
+    def __call__(self, frame: int, last: int) -> None:
+        now = self.clock()
+        every = self.EVERY if self.live else 10 * self.EVERY
+        if now - self.started < self.QUIET or now - self.last < every:
+            return
+        self.last = now
+        share = 100 * frame / max(last, 1)
+        text = f"replay: frame {frame} of {last} ({share:.0f}%, {frame / 60:.0f} s simulated)"
+        self.stream.write(f"\r{text}" if self.live else text + "\n")
+        self.stream.flush()
+        self.shown = True
+
+    def done(self) -> None:
+        """End the line a terminal's progress was written on."""
+        if self.shown and self.live:
+            self.stream.write("\n")
 
 
 def _add_soak_args(p: argparse.ArgumentParser) -> None:

@@ -12,9 +12,10 @@ from importlib import resources
 from pathlib import Path
 
 from twig_ecs.errors import SceneError
+from twig_ecs.files import read_bounded
 from twig_ecs.templates import BodyTemplate, compile_template
 from twig_ecs.validate import fail, join, read, suggest, text
-from twig_ecs.yamldoc import YDict, merge, parse_yaml
+from twig_ecs.yamldoc import MAX_BYTES, YDict, merge, parse_yaml
 
 #: The schema version this release reads (the ``twig:`` key of every file).
 SCHEMA_VERSION = 1
@@ -38,10 +39,9 @@ _BUILTIN: Path | None = None
 
 def read_document(path: Path) -> YDict:
     """Parse a YAML file into a YDict, checking it is a mapping with ``twig: 1``."""
+    data = read_bounded(path, MAX_BYTES, "YAML file", SceneError)
     try:
-        source = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneError(f"cannot read file: {exc.strerror}", str(path)) from None
+        source = data.decode("utf-8")
     except UnicodeDecodeError:
         raise SceneError("not a UTF-8 text file", str(path)) from None
     doc = parse_yaml(source, str(path), trusted_source=_builtin(path))
@@ -148,6 +148,8 @@ class ContentLibrary:
         """A scene file by path, or by built-in/user scene name (``schoolyard``)."""
         path = Path(name_or_path)
         if path.suffix in (".yaml", ".yml") or path.exists():
+            if path.exists() and not path.is_file():  # a folder, or a link to /dev/zero
+                raise SceneError(f"not a regular file: {path} (give a scene .yaml file)")
             if not path.is_file():
                 raise SceneError(f"scene file not found: {path}")
             return path

@@ -30,6 +30,8 @@ PARAMETER_KEYS = ("default", "min", "max", "about")
 #: (a float overflows by itself past 1e308, about 1024 bits).
 MAX_FORMULA = 1000
 MAX_BITS = 1100
+#: Largest power (``**``) and number of digits (``round(x, n)``) a formula may ask for.
+MAX_EXPONENT = 64
 _FUNCTIONS = {"sqrt": math.sqrt, "ceil": math.ceil, "floor": math.floor, "round": round, "min": min,
               "max": max, "abs": abs}  # fmt: skip
 _OPERATORS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
@@ -66,12 +68,18 @@ class Parameter:
                 number = float(value)
                 if not math.isfinite(number):
                     raise ValueError
-        except ValueError:
-            raise ValueError(f"parameter '{self.name}' must be {kind}, got {value!r}") from None
+        except (ValueError, OverflowError):  # OverflowError: a whole number past 1e308
+            raise ValueError(f"parameter '{self.name}' must be {kind}, got {_show(value)}") from None
         if (self.low is not None and number < self.low) or (self.high is not None and number > self.high):
             raise ValueError(f"parameter '{self.name}' must be between {self.low:g} and {self.high:g}, "
                              f"got {number:g}")  # fmt: skip
         return number
+
+
+def _show(value: Any) -> str:
+    """``value`` for an error message, never more than 60 characters (a 300-digit number)."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def read_parameters(doc: YDict) -> dict[str, Parameter]:
@@ -192,7 +200,7 @@ def _eval(node: ast.AST, values: dict[str, int | float]) -> int | float:
     if isinstance(node, ast.BinOp) and type(node.op) in _OPERATORS:
         left, right = _eval(node.left, values), _eval(node.right, values)
         if isinstance(node.op, ast.Pow):
-            if abs(right) > 64:
+            if abs(right) > MAX_EXPONENT:
                 raise ValueError("exponent too large")  # 10**10**10 would never finish
             if isinstance(left, int) and left.bit_length() * abs(right) > MAX_BITS:
                 raise ValueError(f"number too large (more than {MAX_BITS} bits)")  # (10**64)**64**64...
@@ -201,6 +209,10 @@ def _eval(node: ast.AST, values: dict[str, int | float]) -> int | float:
         return _small(_OPERATORS[type(node.op)](_eval(node.operand, values)))
     if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FUNCTIONS
             and not node.keywords):  # fmt: skip
-        return _small(_FUNCTIONS[node.func.id](*(_eval(a, values) for a in node.args)))
+        args = [_eval(a, values) for a in node.args]
+        if node.func.id == "round" and len(args) == 2 and abs(args[1]) > MAX_EXPONENT:
+            # round(1, -10**8) works out 10**(10**8) first: minutes, for one number
+            raise ValueError(f"round's digits must be from -{MAX_EXPONENT} to {MAX_EXPONENT}")
+        return _small(_FUNCTIONS[node.func.id](*args))
     raise ValueError(f"'{ast.unparse(node)}' is not allowed (numbers, parameters, + - * / // % **, "
                      + ", ".join(_FUNCTIONS) + ")")  # fmt: skip

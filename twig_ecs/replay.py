@@ -6,7 +6,10 @@ This module keeps the old import path (``twig_ecs.replay.replay(path)``) working
 from twig_ecs.server.replay import (
     CLOCK_METHODS,
     FORMAT_VERSION,
+    MAX_EMBEDDED_BYTES,
     MAX_FRAMES,
+    MAX_REPLAY_BYTES,
+    MAX_SEED,
     HeadlessSession,
     Recorder,
     ReplayError,
@@ -15,5 +18,6 @@ from twig_ecs.server.replay import (
     scene_files,
 )
 
-__all__ = ["CLOCK_METHODS", "FORMAT_VERSION", "MAX_FRAMES", "HeadlessSession", "Recorder", "ReplayError",
-           "read_replay", "replay", "scene_files"]  # fmt: skip
+__all__ = ["CLOCK_METHODS", "FORMAT_VERSION", "MAX_EMBEDDED_BYTES", "MAX_FRAMES", "MAX_REPLAY_BYTES",
+           "MAX_SEED", "HeadlessSession", "Recorder", "ReplayError", "read_replay", "replay",
+           "scene_files"]  # fmt: skip

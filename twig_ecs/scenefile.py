@@ -21,9 +21,12 @@ from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.library import ContentLibrary, read_document
 from twig_ecs.parameters import read_parameters, resolve, substitute
 from twig_ecs.plugins import load_builtin_behaviors
+from twig_ecs.spawn import MAX_EXTENT
 from twig_ecs.store import ROLES
 from twig_ecs.system import System
 from twig_ecs.templates import (
+    HEIGHT,
+    MASS,
     BodyTemplate,
     Damping,
     read_damping,
@@ -32,7 +35,6 @@ from twig_ecs.templates import (
 from twig_ecs.trust import check_plugin, is_checking_only
 from twig_ecs.validate import (
     LIMIT,
-    between,
     boolean,
     check_keys,
     color,
@@ -53,9 +55,6 @@ from twig_ecs.validate import (
 )
 from twig_ecs.yamldoc import YDict
 
-#: A body's height (m) and total mass (kg) in a scene: the ranges the server's spawn accepts.
-HEIGHT = between(0.01, 100.0)
-MASS = between(1e-3, 1e6)
 SCENE_KEYS = ("twig", "name", "description", "parameters", "settings", "templates", "systems", "entities")
 SYSTEM_KEYS = ("use", "name", "before", "after")
 SETTINGS_KEYS = ("gravity", "iterations", "contact_energy", "max_speed")
@@ -154,18 +153,31 @@ def read_entity(raw: YDict, path: str, library: ContentLibrary) -> EntitySpec:
     pain: PainSensor | None | bool = True
     if "pain" in raw:
         pain = read_pain(raw, "pain", path, template.pain)
+    height = read(raw, "height", path, HEIGHT, None)
+    check_span(template, height, raw, "height" if height is not None else "body", path)
     return EntitySpec(
         name=name,
         template=template,
         position=read(raw, "position", path, vec3, (0.0, 0.0, 0.0)),
         facing=read(raw, "facing", path, number, 0.0),
-        height=read(raw, "height", path, HEIGHT, None),
+        height=height,
         mass=read(raw, "mass", path, MASS, None),
         color=read(raw, "color", path, color, None),
         pain=pain,
         damping=read_damping(raw, "damping", path, None),
         character=read_character(raw, path, template),
     )
+
+
+def check_span(template: BodyTemplate, height: float | None, container: YDict, key: str, path: str) -> None:
+    """Fail (at ``container[key]``) when the body would be over MAX_EXTENT across at ``height``,
+    as spawning it would: ``twig validate`` says so instead of the run."""
+    span = template.span(height)
+    if span > MAX_EXTENT:
+        at = f"height {height:g} m" if height is not None else f"its default height {template.height:g} m"
+        fail(container, key, join(path, key),
+             f"at {at} body '{template.name}' would be {span:.0f} m across, over the {MAX_EXTENT:.0f} m "
+             "limit (MAX_EXTENT); give a smaller height")  # fmt: skip
 
 
 def _target(value):

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from twig_ecs.components import PainSensor
 from twig_ecs.validate import (
+    between,
     boolean,
     check_keys,
     color,
@@ -55,6 +56,14 @@ LIMIT_KEYS = ("hinge", "frame", "side", "ref", "arc")
 DAMPING_KEYS = ("air", "ground")
 PAIN_KEYS = ("threshold", "half_life", "gain")
 DEFAULT_KEYS = ("height", "mass")
+#: A body's height (m) and total mass (kg): the ranges a scene and the server's spawn accept.
+HEIGHT = between(0.01, 100.0)
+MASS = between(1e-3, 1e6)
+#: A node's mass (kg at the reference height, or its share of a given total mass): a
+#: denormal such as 5e-324 has an infinite inverse, and the body's nodes become NaN.
+NODE_MASS = between(1e-6, 1e6)
+#: Closer than this (m, at the reference height) two nodes are at one place.
+SAME_PLACE = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +143,19 @@ class BodyTemplate:
         """Node names in row order."""
         return tuple(n.name for n in self.nodes)
 
+    def span(self, height: float | None = None) -> float:
+        """How far across (m) the body is at ``height`` (default: its own): the largest side
+        of the box holding every node's sphere (its radius, or its fattest colliding link's)."""
+        radius = {n.name: n.radius or 0.0 for n in self.nodes}
+        derived = {n.name for n in self.nodes if n.radius is None}
+        for link in self.links:
+            for end in (link.a, link.b):
+                if link.collide and end in derived:
+                    radius[end] = max(radius[end], link.radius)
+        sides = [max(n.at[axis] + radius[n.name] for n in self.nodes)
+                 - min(n.at[axis] - radius[n.name] for n in self.nodes) for axis in range(3)]  # fmt: skip
+        return max(sides) * (height or self.height) / self.reference_height
+
 
 def read_damping(doc: YDict, key: str, path: str, default: Damping | None) -> Damping | None:
     """A ``damping: {air, ground}`` mapping (each a fraction removed per step)."""
@@ -166,14 +188,14 @@ def read_pain(doc: YDict, key: str, path: str, default: PainSensor | None) -> Pa
 def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
     """Validate a (merged) template document and build its BodyTemplate."""
     check_keys(doc, path, TEMPLATE_KEYS)
-    ref_h = read(doc, "reference_height", path, positive, 1.0)
+    ref_h = read(doc, "reference_height", path, HEIGHT, 1.0)
     defaults = read(doc, "defaults", path, mapping, None)
     height, mass = ref_h, None
     if defaults is not None:
         dpath = join(path, "defaults")
         check_keys(defaults, dpath, DEFAULT_KEYS)
-        height = read(defaults, "height", dpath, positive, ref_h)
-        mass = read(defaults, "mass", dpath, positive, None)
+        height = read(defaults, "height", dpath, HEIGHT, ref_h)
+        mass = read(defaults, "mass", dpath, MASS, None)
     body_color = read(doc, "color", path, color, (0.8, 0.8, 0.8, 1.0))
     damping = read_damping(doc, "damping", path, Damping())
     assert damping is not None
@@ -202,7 +224,7 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
             NodeSpec(
                 name=str(node_name),
                 at=read(spec, "at", here, vec3),
-                mass=read(spec, "mass", here, positive, 1.0),
+                mass=read(spec, "mass", here, NODE_MASS, 1.0),
                 radius=read(spec, "radius", here, nonnegative, None),
                 locked=read(spec, "locked", here, boolean, False),
                 lock_on_contact=read(spec, "lock_on_contact", here, boolean, False),
@@ -244,7 +266,7 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
         if collide and radius <= 0:
             fail(spec, "collide", join(here, "collide"), "a colliding link needs a radius greater than 0")
         length = read(spec, "length", here, positive, None)
-        if length is None and math.dist(known[a].at, known[b].at) <= 1e-9:
+        if length is None and math.dist(known[a].at, known[b].at) <= SAME_PLACE:
             fail(
                 spec,
                 "nodes",
@@ -297,6 +319,12 @@ def compile_template(name: str, doc: YDict, path: str = "") -> BodyTemplate:
         for a in axle:
             if not known[a].locked:
                 fail(doc, "axle", join(path, "axle"), f"axle node '{a}' must be locked: true")
+        # the axle's direction is the line between its nodes: with no line it is NaN
+        if axle[0] == axle[1]:
+            fail(doc, "axle", join(path, "axle"), f"an axle needs two different nodes, got '{axle[0]}' twice")
+        if math.dist(known[axle[0]].at, known[axle[1]].at) <= SAME_PLACE:
+            fail(doc, "axle", join(path, "axle"), f"axle nodes '{axle[0]}' and '{axle[1]}' are at the "
+                 "same place: the axle has no direction")  # fmt: skip
 
     return BodyTemplate(
         name=name,

@@ -94,7 +94,10 @@ LIMIT = 1e6
 
 def number(value: Any) -> float:
     """A finite real number (not a boolean) of magnitude at most LIMIT."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError("a finite number")
+    # a whole number is compared before it becomes a float: past 1e308 it cannot
+    if not isinstance(value, int) and not math.isfinite(value):
         raise ValueError("a finite number")
     if abs(value) > LIMIT:
         raise ValueError(f"a number between -{LIMIT:g} and {LIMIT:g}")

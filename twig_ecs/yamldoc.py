@@ -43,13 +43,20 @@ class YList(list):
         return self.file, self.line
 
 
-#: Most values one document may hold (after expanding aliases): a guard against
-#: "billion laughs" documents that would otherwise expand without end.
-MAX_VALUES = 1_000_000
+#: Caps on the work one document may cost. PyYAML's pure-Python parser reads about
+#: 100-200 KiB/s, so a file at each cap is read (or refused) in about a second: the file's
+#: size, its nodes as written (each key, value and item), its values once aliases are
+#: expanded (a "billion laughs" document is refused without expanding it), its nesting,
+#: the length of any one scalar and of a number (a 5000-digit integer would take seconds to
+#: convert; 100 characters hold any float). The largest built-in file is 6 KiB, 500 nodes.
+MAX_BYTES = 256 * 1024
+MAX_NODES = 20_000
+MAX_VALUES = 100_000
 #: Deepest nesting of mappings and lists (a scene needs about 6).
 MAX_DEPTH = 64
-#: Largest file read, in bytes.
-MAX_BYTES = 16 * 1024 * 1024
+#: Longest text (characters) and number (characters as written) one value may be.
+MAX_SCALAR = 10_000
+MAX_NUMBER = 100
 
 
 def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConstructor) -> Any:
@@ -64,7 +71,8 @@ def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConst
             if isinstance(key, (YDict, YList)):
                 raise SceneError("mapping keys must be plain values", file, key_node.start_mark.line + 1)
             if key in out:
-                raise SceneError(f"duplicate key '{key}'", file, key_node.start_mark.line + 1)
+                shown = key if len(str(key)) <= 60 else f"{str(key)[:57]}..."
+                raise SceneError(f"duplicate key '{shown}'", file, key_node.start_mark.line + 1)
             out[key] = _convert(value_node, file, constructor)
             out.key_lines[key] = (file, key_node.start_mark.line + 1)
         return out
@@ -74,7 +82,20 @@ def _convert(node: yaml.Node, file: str, constructor: yaml.constructor.SafeConst
         out.item_lines = [item.start_mark.line + 1 for item in node.value]
         out.extend(_convert(item, file, constructor) for item in node.value)
         return out
-    return constructor.construct_object(node, deep=True)
+    try:
+        value = constructor.construct_object(node, deep=True)
+    except (ValueError, TypeError, KeyError, AttributeError, IndexError, OverflowError):
+        # PyYAML's own constructors fail so on explicit tags: !!timestamp x, !!bool x, !!int _
+        tag = node.tag.rpartition(":")[2] or node.tag
+        raise SceneError(f"not a valid {tag} value: {str(node.value)[:40]!r}", file, line) from None
+    if isinstance(value, str) and not value.isascii():
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:  # "\ud800": a name that no trace, report or socket could write
+            raise SceneError(
+                f"{value[:40]!r} is not valid Unicode text (a lone surrogate such as \\ud800)", file, line
+            ) from None
+    return value
 
 
 def _expanded_size(node: yaml.Node, file: str, memo: dict[int, int | None], depth: int = 0) -> int:
@@ -106,19 +127,82 @@ def _expanded_size(node: yaml.Node, file: str, memo: dict[int, int | None], dept
     return total
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader that also reads ``1e3`` and ``-2.5E-4`` as floats, as YAML 1.2 does.
+class _NoBase60:
+    """A resolver pattern that never matches YAML 1.1's base-60 numbers (``1:30``, ``1:30.5``).
 
-    (PyYAML follows YAML 1.1, where an exponent without a dot makes a string.)
+    YAML 1.2 dropped them, and PyYAML reads them in quadratic time (a 1.2 MB one took
+    minutes) or overflows on a long float; so ``1:30`` is the text '1:30', as in YAML 1.2.
+    """
+
+    def __init__(self, pattern: re.Pattern) -> None:
+        self.pattern = pattern
+
+    def match(self, value: str) -> re.Match | None:
+        """The wrapped pattern's match, None for anything with a colon."""
+        return None if ":" in value else self.pattern.match(value)
+
+
+def _construct_number(convert):
+    """A number constructor that refuses a literal over MAX_NUMBER characters first (with its line)."""
+
+    def construct(self, node: yaml.ScalarNode) -> int | float:
+        if len(node.value) > MAX_NUMBER:
+            raise SceneError(f"number too long: {len(node.value)} characters (at most {MAX_NUMBER})",
+                             self.twig_file, node.start_mark.line + 1)  # fmt: skip
+        try:
+            return convert(self, node)
+        except (ValueError, OverflowError):  # an explicit !!int or !!float on something else
+            raise SceneError(f"not a number: {node.value[:40]!r}", self.twig_file,
+                             node.start_mark.line + 1) from None  # fmt: skip
+
+    return construct
+
+
+class _Bounded:
+    """Counts what a document costs while it is composed: refuses it at :data:`MAX_NODES`
+    nodes or a scalar over :data:`MAX_SCALAR` characters, before reading further."""
+
+    twig_file = "<string>"
+    twig_nodes = 0
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        self.twig_nodes += 1
+        if self.twig_nodes > MAX_NODES:
+            line = self.peek_event().start_mark.line + 1
+            raise SceneError(f"document too large: more than {MAX_NODES} nodes", self.twig_file, line)
+        return super().compose_node(parent, index)
+
+    def compose_scalar_node(self, anchor: str | None) -> yaml.ScalarNode:
+        node = super().compose_scalar_node(anchor)
+        if len(node.value) > MAX_SCALAR:
+            raise SceneError(f"text too long: {len(node.value)} characters (at most {MAX_SCALAR})",
+                             self.twig_file, node.start_mark.line + 1)  # fmt: skip
+        return node
+
+
+class _Loader(_Bounded, yaml.SafeLoader):
+    """SafeLoader that reads numbers as YAML 1.2 does, within the caps above.
+
+    ``1e3`` and ``-2.5E-4`` are floats (PyYAML follows YAML 1.1, where an exponent without
+    a dot makes a string); ``1:30`` is text, not a base-60 number.
     """
 
 
-_Loader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_Loader.yaml_implicit_resolvers = {
+    first: [
+        (tag, _NoBase60(pattern) if tag.endswith((":int", ":float")) else pattern)
+        for tag, pattern in resolvers
+    ]  # fmt: skip
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 _Loader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
     list("-+0123456789"),
 )
+for _tag, _convert_number in (("int", yaml.SafeLoader.construct_yaml_int),
+                              ("float", yaml.SafeLoader.construct_yaml_float)):  # fmt: skip
+    _Loader.add_constructor(f"tag:yaml.org,2002:{_tag}", _construct_number(_convert_number))
 
 
 if yaml.__with_libyaml__:
@@ -131,7 +215,10 @@ if yaml.__with_libyaml__:
         users (and the server's clients) always go through :class:`_Loader`.
         """
 
+        twig_file = "<string>"
+
     _FastLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
+    _FastLoader.yaml_constructors = _Loader.yaml_constructors
 else:  # pragma: no cover - PyYAML built without libyaml
     _FastLoader = _Loader
 
@@ -162,10 +249,11 @@ def parse_yaml(text: str, file: str = "<string>", trusted_source: bool = False) 
     parser may read it (it halves a scene's load time).
     """
     if len(text) > MAX_BYTES:
-        raise SceneError(f"file too large: over {MAX_BYTES // (1024 * 1024)} MiB", file)
+        raise SceneError(f"file too large: {len(text)} characters, at most {MAX_BYTES // 1024} KiB", file)
     _refuse_deep_brackets(text, file)
     try:
         loader = (_FastLoader if trusted_source else _Loader)(text)
+        loader.twig_file = file
         try:
             root = loader.get_single_node()
             if root is None:

@@ -16,7 +16,10 @@ same scene and seed, steps to each command's frame, applies it through the same 
 function as the server did, steps to the end frame and compares the state hash.
 A replay file is data (see :mod:`twig_ecs.trust`): it writes only its embedded ``.yaml``
 files, only inside its temporary folder, and its scene runs no plug-in file unless the
-user passes ``--trust``; frames past :data:`MAX_FRAMES` are refused.
+user passes ``--trust``. Reading is bounded before any work: the file at most
+:data:`MAX_REPLAY_BYTES` (a regular file), its embedded YAML at most
+:data:`MAX_EMBEDDED_BYTES` in all, frames at most :data:`MAX_FRAMES` (an hour), the seed
+0 to :data:`MAX_SEED`.
 Only commands that reached the simulation are recorded: requests refused while being
 checked (bad JSON, bad parameters) never touch the world. ``pause``, ``resume`` and
 ``step`` are clock controls: their effect is in the frame numbers.
@@ -33,20 +36,33 @@ from __future__ import annotations
 
 import json
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
 from twig_ecs.errors import TwigError
+from twig_ecs.files import read_text_bounded
 from twig_ecs.library import ContentLibrary
 from twig_ecs.scene import Scene
 from twig_ecs.server.core import Server
 from twig_ecs.server.methods import bind, find_method
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.trust import loading_data
+from twig_ecs.yamldoc import MAX_BYTES as MAX_YAML_BYTES
 
 FORMAT_VERSION = 1
-#: Latest frame a replay may name (24 h at 60 Hz): a replay never runs for ever.
-MAX_FRAMES = 24 * 3600 * 60
+#: Latest frame a replay may name: an hour at 60 Hz (a few minutes to replay a schoolyard),
+#: so a two-line file cannot keep ``twig run --replay`` busy for hours.
+MAX_FRAMES = 3600 * 60
+#: Largest replay file: 80 000 commands of 100 bytes; read and checked in under a second.
+MAX_REPLAY_BYTES = 8 * 1024 * 1024
+#: Most YAML text a replay may embed (scene and content files together): each file is parsed
+#: when the scene loads, at up to a second per 256 KiB.
+MAX_EMBEDDED_BYTES = 512 * 1024
+#: Largest seed (numpy's generators take any whole number >= 0; this fits 64 bits).
+MAX_SEED = 2**63 - 1
+#: Frames stepped between two progress reports while replaying.
+PROGRESS_FRAMES = 600
 #: Methods whose effect on the world is only the passing of time (already in the frame numbers).
 CLOCK_METHODS = ("pause", "resume", "step")
 #: Default size limit of a recording (bytes, header included).
@@ -168,56 +184,98 @@ class Recorder:
         self.file = None
 
 
-def read_replay(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:
-    """(header, commands, end) of a replay file; ReplayError if it is not one."""
-    try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ReplayError(f"cannot read replay file '{path}': {exc}") from None
-    try:
-        items = [json.loads(line) for line in lines if line.strip()]
-    except ValueError as exc:
-        raise ReplayError(f"'{path}' is not a replay file (bad JSON line: {exc})") from None
+def read_replay(path: str | Path, max_frames: int = MAX_FRAMES
+                ) -> tuple[dict[str, Any], list[dict[str, Any]], dict[str, Any] | None]:  # fmt: skip
+    """(header, commands, end) of a replay file; ReplayError if it is not one.
+
+    Everything is checked here, before a scene loads: field types, the seed, the frames
+    (in order, none past ``max_frames``) and the sizes of the file and its embedded files.
+    """
+    text = read_text_bounded(path, MAX_REPLAY_BYTES, "replay file", ReplayError)
+    items = []
+    for number, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            items.append(json.loads(line))
+        except ValueError as exc:
+            raise ReplayError(f"'{path}' is not a replay file (line {number} is not JSON: {exc})") from None
+        except RecursionError:  # [[[[...]]]] thousands deep
+            raise ReplayError(f"'{path}': line {number} is nested too deeply to be a replay record") from None
     if not items or not isinstance(items[0], dict) or "twig_replay" not in items[0]:
         raise ReplayError(f"'{path}' is not a replay file (no twig_replay header)")
     header = items[0]
     if header["twig_replay"] != FORMAT_VERSION:
-        raise ReplayError(
-            f"replay format version {header['twig_replay']}; this twig-ecs reads {FORMAT_VERSION}"
-        )
+        raise ReplayError(f"replay format version {header['twig_replay']!r:.40}; "
+                          f"this twig-ecs reads {FORMAT_VERSION}")  # fmt: skip
     _check_header(header, path)
     end = items[-1] if len(items) > 1 and isinstance(items[-1], dict) and "end" in items[-1] else None
     commands = items[1 : len(items) - (1 if end else 0)]
+    last = 0
     for k, item in enumerate(commands):
-        ok = isinstance(item, dict) and _is_frame(item.get("frame")) and isinstance(item.get("method"), str)
-        if not ok or not isinstance(item.get("params") or {}, dict):
+        ok = isinstance(item, dict) and _is_frame(item.get("frame"), max_frames)
+        ok = ok and isinstance(item.get("method"), str) and isinstance(item.get("params") or {}, dict)
+        if not ok:
             raise ReplayError(
                 f"'{path}': line {k + 2} is not a command record "
-                f"(needs frame: 0..{MAX_FRAMES}, method: a name, params: an object)"
+                f"(needs frame: 0..{max_frames}, method: a name, params: an object)"
             )
-    if end is not None and not _is_frame(end.get("end")):
-        raise ReplayError(f"'{path}': the end line's 'end' must be a frame number 0..{MAX_FRAMES}")
+        if item["frame"] < last:
+            raise ReplayError(f"'{path}': line {k + 2}: commands out of order (frame {item['frame']} "
+                              f"after frame {last})")  # fmt: skip
+        last = item["frame"]
+    if end is not None:
+        if not _is_frame(end.get("end"), max_frames):
+            hours, got = max_frames / (3600 * 60), _short(end.get("end"))
+            raise ReplayError(f"'{path}': the end line's 'end' must be a frame number 0..{max_frames} "
+                              f"({hours:g} h at 60 Hz, the longest replay), got {got}")  # fmt: skip
+        if end["end"] < last:
+            raise ReplayError(f"'{path}': the end line's frame {end['end']} is before the last command's "
+                              f"({last})")  # fmt: skip
     return header, commands, end
 
 
-def _is_frame(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_FRAMES
+def _is_frame(value: Any, max_frames: int = MAX_FRAMES) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= max_frames
 
 
 def _check_header(header: dict[str, Any], path: str | Path) -> None:
     """The header's fields have the types a replay needs (ReplayError naming the first that does not)."""
     checks = {
         "scene": lambda v: isinstance(v, str),
-        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool),
+        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= MAX_SEED,
         "content": lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v),
         "autonomous": lambda v: isinstance(v, bool),
         "files": lambda v: v is None or _files_ok(v),
     }
     for key, ok in checks.items():
         if key in header and not ok(header[key]):
-            raise ReplayError(f"'{path}': the header's '{key}' has the wrong type ({header[key]!r:.60})")
+            raise ReplayError(f"'{path}': the header's '{key}' has the wrong type or range "
+                              f"({_short(header[key])})")  # fmt: skip
     if not isinstance(header.get("scene"), str):
         raise ReplayError(f"'{path}': the header names no scene")
+    embedded = _embedded_size(header.get("files") or {})
+    if embedded > MAX_EMBEDDED_BYTES:
+        raise ReplayError(f"'{path}' embeds {embedded} bytes of YAML files; a replay may carry at most "
+                          f"{MAX_EMBEDDED_BYTES // 1024} KiB")  # fmt: skip
+
+
+def _short(value: Any) -> str:
+    """A value for an error message: at most 60 characters, even for a huge number or deep list."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"a {value.bit_length()}-bit number"
+    try:
+        text = repr(value)
+    except (RecursionError, ValueError):
+        return f"a {type(value).__name__}"
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _embedded_size(files: dict[str, Any]) -> int:
+    """Bytes (about: characters) of the YAML texts a replay's header embeds."""
+    texts = [(files.get("scene") or {}).get("text") or ""]
+    texts += [t for folder in (files.get("content") or {}).values() for t in folder.values()]
+    return sum(len(t) for t in texts)
 
 
 def _files_ok(files: Any) -> bool:
@@ -250,10 +308,13 @@ def _load_scene(header: dict[str, Any], folder: Path):
     files = header.get("files") or {}
     scene_file = files.get("scene") or {}
     content = list(header.get("content", []))
+    embedded = files.get("content") or {}
+    # unchanged: the scene file and every YAML file of every content folder as embedded, and
+    # no others (a replay naming a folder it does not embed would have any YAML there read)
     unchanged = _same(scene_file.get("path"), scene_file.get("text")) and all(
-        _same(str(Path(d) / rel), text)
-        for d, texts in files.get("content", {}).items()
-        for rel, text in texts.items()
+        _yaml_files(d) == set(embedded.get(d, {}))
+        and all(_same(str(Path(d) / rel), text) for rel, text in embedded.get(d, {}).items())
+        for d in content
     )
     if unchanged or not scene_file:
         source = scene_file.get("path") or header["scene"]
@@ -274,31 +335,49 @@ def _load_scene(header: dict[str, Any], folder: Path):
 
 
 def _same(path: str | None, text: str | None) -> bool:
+    """Does the file ``path`` hold ``text``? (Read bounded: the path comes from the replay.)"""
+    if path is None or text is None:
+        return False
     try:
-        return path is not None and Path(path).read_text(encoding="utf-8") == text
-    except (OSError, UnicodeDecodeError):
+        return read_text_bounded(path, MAX_YAML_BYTES, "recorded file") == text
+    except TwigError:
         return False
 
 
-def replay(path: str | Path, log=None) -> dict[str, Any]:
+def _yaml_files(folder: str) -> set[str]:
+    """The YAML files a content folder holds, as :class:`ContentLibrary` reads them (relative paths)."""
+    root = Path(folder)
+    if not root.is_dir():
+        return set()
+    return {str(f.relative_to(root)) for f in [*root.glob("*.yaml"), *root.glob("*/*.yaml")]}
+
+
+def replay(path: str | Path, log=None, progress: Callable[[int, int], None] | None = None,
+           max_frames: int = MAX_FRAMES) -> dict[str, Any]:  # fmt: skip
     """Replay a recorded session headless; returns frames, commands, the state hashes and ``match``.
 
     Each command is applied exactly as the server applied it (the same method function,
     between the same two steps); an error that differs from the recorded one is counted
-    in ``diverged``.
+    in ``diverged``. ``progress(frame, last_frame)`` is called every :data:`PROGRESS_FRAMES`
+    frames stepped. A replay naming a frame past ``max_frames`` is refused before it starts.
     """
-    header, commands, end = read_replay(path)
+    header, commands, end = read_replay(path, max_frames)
     with tempfile.TemporaryDirectory(prefix="twig-replay-") as tmp:
         scene = _load_scene(header, Path(tmp))
     server = Server(scene, autonomous=bool(header.get("autonomous", True)), log=log or (lambda text: None))
     session = HeadlessSession()
     diverged = 0
+    final = end["end"] if end else (commands[-1]["frame"] if commands else 0)
+
+    def step_to(frame: int) -> None:
+        while scene.frame < frame:  # in chunks, to report progress (stepping in chunks changes nothing)
+            scene.step(min(PROGRESS_FRAMES, frame - scene.frame))
+            if progress is not None:
+                progress(scene.frame, final)
+
     try:
         for item in commands:
-            frame = item["frame"]
-            if frame < scene.frame:
-                raise ReplayError(f"commands out of order: frame {frame} after frame {scene.frame}")
-            scene.step(frame - scene.frame)
+            step_to(item["frame"])  # read_replay checked they are in order
             method = find_method(item["method"], scene)
             if method is None:
                 raise ReplayError(f"unknown method '{item['method']}' in the replay file")
@@ -313,11 +392,14 @@ def replay(path: str | Path, log=None) -> dict[str, Any]:
                 error = str(exc.args[0]) if exc.args else "unknown name"
             except TwigError as exc:
                 error = str(exc)
+            except Exception as exc:  # a bug, which the server answers as an internal error and records
+                error = f"internal error in {method.name}: {exc!r}"
             server._flush()  # noqa: SLF001 - as Server._apply does after every command
             if (error is None) != (item.get("error") is None):
                 diverged += 1
-        final = end["end"] if end else scene.frame
-        scene.step(max(0, final - scene.frame))
+            if progress is not None:
+                progress(scene.frame, final)
+        step_to(final)
         state_hash = scene.state_hash()
         recorded = end.get("state_hash") if end else None
         return {
