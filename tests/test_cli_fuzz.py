@@ -365,12 +365,6 @@ def test_no_fuzzed_scene_template_yaml_or_replay_makes_the_cli_print_a_traceback
     assert not failures, f"{len(failures)} files:\n" + "\n".join(failures)
 
 
-@pytest.mark.xfail(
-    reason="snapshot restore unpickles a scene; a payload mutated under a recomputed checksum can "
-    "restore a store whose counts are wrong (a traceback in the first step, a 14 GiB allocation, a "
-    "segmentation fault in a kernel). Issue 31 makes snapshots data-only: drop this mark with that.",
-    strict=False,
-)
 def test_no_fuzzed_snapshot_makes_the_cli_print_a_traceback(tmp_path):
     failures = fuzz(("snapshot",), tmp_path)
     assert not failures, f"{len(failures)} files:\n" + "\n".join(failures)

@@ -211,6 +211,29 @@ def test_a_recording_stops_at_its_size_limit_and_the_server_goes_on(tmp_path: Pa
     assert result["match"] and result["frames"] == end["end"] < 17
 
 
+def test_a_recording_stops_at_the_last_frame_a_replay_may_name(tmp_path: Path, monkeypatch):
+    """A server recording past an hour of frames wrote files `twig run --replay` refuses."""
+    from twig_ecs.server import replay as recording
+
+    monkeypatch.setattr(recording, "MAX_FRAMES", 30)  # an hour, shortened
+    path = tmp_path / "session.twigreplay"
+    with running_server(paused=True, record=str(path)) as srv:
+        with Client(port=srv.port, timeout=60) as twig:
+            twig.walk(character="parent", velocity=[0.3, 0.0])
+            assert twig.step(n=45)["frame"] == 45 and twig.ping() == "pong"
+        assert any("a replay holds at most 30 frames" in line for line in srv.log), srv.log
+    end = json.loads(path.read_text().splitlines()[-1])
+    assert end["end"] == 30 and "at most 30 frames" in end["note"]
+    assert replay(path)["match"]
+
+
+def test_a_record_limit_past_what_a_replay_holds_is_refused(tmp_path: Path):
+    command = [sys.executable, "-m", "twig_ecs", "serve", "empty", "--port", "0", "--record",
+               str(tmp_path / "r.twigreplay"), "--record-limit", "100"]  # fmt: skip
+    run = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 2 and "a replay holds at most 8 MiB" in run.stderr, run.stderr
+
+
 # -- item 4: tokens and logging in ------------------------------------------------------------------------
 
 

@@ -49,6 +49,7 @@ from twig_ecs import esperworld, worlddata
 from twig_ecs.behavior import Mind
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
+from twig_ecs.files import read_bounded
 from twig_ecs.kernels import ensure_compiled
 from twig_ecs.store import check_store
 from twig_ecs.trust import UntrustedCode, check_snapshot_plugin, is_trusted, module_allowed
@@ -313,17 +314,8 @@ def _row(value: Any, count: int) -> bool:
 
 
 def load(path: str | Path):
-    """A scene restored from a snapshot file (at most :data:`MAX_BYTES`, a regular file)."""
-    try:
-        with open(path, "rb") as file:
-            if not Path(path).resolve().is_file():
-                raise SnapshotError(f"cannot read snapshot '{path}': not a regular file")
-            data = file.read(MAX_BYTES + 1)
-    except OSError as exc:
-        raise SnapshotError(f"cannot read snapshot '{path}': {exc.strerror}") from None
-    if len(data) > MAX_BYTES:
-        raise SnapshotError(f"cannot read snapshot '{path}': larger than {MAX_BYTES >> 20} MiB")
-    return restore(data)
+    """A scene restored from a snapshot file (a regular file of at most :data:`MAX_BYTES`)."""
+    return restore(read_bounded(path, MAX_BYTES, "snapshot", SnapshotError))
 
 
 def _import_plugins(plugins: Any) -> set[str]:

@@ -300,6 +300,9 @@ def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
     slots[free[0] if len(free) else 1] = body
 
 
+#: Farthest a node of a restored store may be from the origin on any axis (m): grids sized
+#: by the world's extent (the yard, the broad phase) must not be asked for a continent.
+MAX_COORDINATE = 1.0e5
 #: The blocks of a store and their fields (what a restored store is checked against).
 BLOCKS: dict[str, dict[str, tuple[type, tuple[int, ...], float]]] = {
     "nodes": NODE_FIELDS, "links": LINK_FIELDS, "limits": LIMIT_FIELDS, "colliders": COLLIDER_FIELDS,
@@ -371,8 +374,9 @@ def check_store(state: PhysicsState) -> None:
         _check_rows(getattr(state, name).arrays[column][: counts[name]], 0, choices, f"{name}.{column}")
     nodes = state.nodes
     for column in ("pos", "prev", "lock_pos"):
-        if not np.isfinite(nodes.arrays[column][: counts["nodes"]]).all():
-            raise ValueError(f"nodes.{column} holds a position that is not a finite number")
+        if not (np.abs(nodes.arrays[column][: counts["nodes"]]) <= MAX_COORDINATE).all():  # NaN fails too
+            raise ValueError(f"nodes.{column} holds a position that is not a number within "
+                             f"{MAX_COORDINATE:g} m of the origin")  # fmt: skip
     pairs, n_pairs = state.pairs, state.n_pairs
     if type(pairs) is not np.ndarray or pairs.dtype != np.int32 or pairs.ndim != 2 or pairs.shape[1] != 2:
         raise ValueError("the broad phase's pairs are not an (n, 2) int32 array")

@@ -68,7 +68,8 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
         metavar="MIB",
         type=_mebibytes,
         default=None,
-        help="stop recording when the file reaches this size (default 256 MiB); the server goes on",
+        help="stop recording when the file reaches this size (default and most: 8 MiB, what a replay "
+        "holds); the server goes on",
     )
     p.set_defaults(func=cmd_serve)
 
@@ -78,8 +79,11 @@ def _mebibytes(text: str) -> int:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"a size in MiB, such as 64 (got {text!r})") from None
-    if not 1 <= value <= 1 << 20:
-        raise argparse.ArgumentTypeError("between 1 MiB and 1 TiB (1048576)")
+    from twig_ecs.server.replay import MAX_REPLAY_BYTES
+
+    most = MAX_REPLAY_BYTES >> 20
+    if not 0.01 <= value <= most:
+        raise argparse.ArgumentTypeError(f"between 0.01 and {most} MiB (a replay holds at most {most} MiB)")
     return int(value * (1 << 20))
 
 

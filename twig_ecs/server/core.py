@@ -327,9 +327,16 @@ class Server:
         assert recorder is not None
         if recorder.command(frame, command.method.name, command.params, error and error.message):
             return
-        recorder.close(before["frame"], before["state_hash"], note=recorder.full_note)
+        self._stop_recording(recorder.full_note, before["frame"], before["state_hash"])
+
+    def _stop_recording(self, note: str, frame: int | None = None, state_hash: str | None = None) -> None:
+        """End the recording with ``note`` at ``frame`` (now, unless given); serve on unrecorded."""
+        recorder = self.recorder
+        assert recorder is not None
+        frame = self.scene.frame if frame is None else frame
+        recorder.close(frame, self.scene.state_hash() if state_hash is None else state_hash, note=note)
         self.recorder = None
-        self.log(f"{recorder.full_note} at frame {before['frame']} ({recorder.path}); serving on unrecorded")
+        self.log(f"{note} at frame {frame} ({recorder.path}); serving on unrecorded")
 
     # -- the simulation ------------------------------------------------------------------------
 
@@ -425,6 +432,8 @@ class Server:
         self._keep_checkpoint()
         try:
             self.scene.step(1)
+            if self.recorder is not None and self.recorder.past_frames(self.scene.frame):
+                self._stop_recording(self.recorder.frames_note)
         except Exception as exc:
             self.log(f"the simulation failed at frame {self.scene.frame}; paused:\n{traceback.format_exc()}")
             failed = self.scene.frame  # the frame the step started from

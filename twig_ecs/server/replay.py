@@ -65,8 +65,9 @@ MAX_SEED = 2**63 - 1
 PROGRESS_FRAMES = 600
 #: Methods whose effect on the world is only the passing of time (already in the frame numbers).
 CLOCK_METHODS = ("pause", "resume", "step")
-#: Default size limit of a recording (bytes, header included).
-MAX_RECORD_BYTES = 256 << 20
+#: Size limit of a recording (bytes, header included): what a replay may hold, so every
+#: recording can be replayed (``--record-limit`` may only lower it).
+MAX_RECORD_BYTES = MAX_REPLAY_BYTES
 #: Longest parameters (bytes of JSON) a failed command keeps in a recording.
 MAX_FAILED_PARAMS = 1024
 #: Longest error message a recording keeps (characters).
@@ -99,15 +100,14 @@ def _jsonable(value: Any) -> Any:
 def scene_files(source: str | Path, content: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
     """The scene file's text and every YAML file of the content folders, to embed in a recording."""
     path = ContentLibrary(content).scene_path(source)
-    out: dict[str, Any] = {
-        "scene": {"path": str(path), "text": path.read_text(encoding="utf-8")},
-        "content": {},
-    }
+    read = lambda f: read_text_bounded(f, MAX_EMBEDDED_BYTES, "file to record", ReplayError)  # noqa: E731
+    out: dict[str, Any] = {"scene": {"path": str(path), "text": read(path)}, "content": {}}
     for folder in content:
         files = sorted(Path(folder).glob("*.yaml")) + sorted(Path(folder).glob("*/*.yaml"))
-        out["content"][str(folder)] = {
-            str(f.relative_to(folder)): f.read_text(encoding="utf-8") for f in files
-        }
+        out["content"][str(folder)] = {str(f.relative_to(folder)): read(f) for f in files}
+    if _embedded_size(out) > MAX_EMBEDDED_BYTES:  # a replay could not carry them: say so now
+        raise ReplayError(f"cannot record: the scene and content files are {_embedded_size(out)} bytes; "
+                          f"a replay carries at most {MAX_EMBEDDED_BYTES // 1024} KiB of them")  # fmt: skip
     return out
 
 
@@ -166,6 +166,15 @@ class Recorder:
         self.commands += 1
         self._write(line)
         return True
+
+    def past_frames(self, frame: int) -> bool:
+        """Has the world gone past the last frame a replay may name (:data:`MAX_FRAMES`)?"""
+        return frame >= MAX_FRAMES
+
+    @property
+    def frames_note(self) -> str:
+        """The end line's note when the recording reached the last frame a replay may name."""
+        return f"recording stopped: a replay holds at most {MAX_FRAMES} frames (an hour)"
 
     @property
     def full_note(self) -> str:
