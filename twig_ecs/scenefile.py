@@ -173,11 +173,11 @@ def check_span(template: BodyTemplate, height: float | None, container: YDict, k
     """Fail (at ``container[key]``) when the body would be over MAX_EXTENT across at ``height``,
     as spawning it would: ``twig validate`` says so instead of the run."""
     span = template.span(height)
-    if span > MAX_EXTENT:
+    if not span <= MAX_EXTENT:  # NaN too
         at = f"height {height:g} m" if height is not None else f"its default height {template.height:g} m"
         fail(container, key, join(path, key),
              f"at {at} body '{template.name}' would be {span:.0f} m across, over the {MAX_EXTENT:.0f} m "
-             "limit (MAX_EXTENT); give a smaller height")  # fmt: skip
+             "limit (MAX_EXTENT); give a smaller height or radius")  # fmt: skip
 
 
 def _target(value):

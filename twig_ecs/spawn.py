@@ -41,27 +41,6 @@ def yaw_matrix(degrees: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-def contact_radii(template: BodyTemplate) -> np.ndarray:
-    """Each node's contact radius at the reference height: its own, or the fattest collidable link's."""
-    index = {n.name: k for k, n in enumerate(template.nodes)}
-    link_radius = np.zeros(len(template.nodes))
-    for link in template.links:
-        if link.collide:
-            for end in (link.a, link.b):
-                link_radius[index[end]] = max(link_radius[index[end]], link.radius)
-    own = [n.radius for n in template.nodes]
-    return np.array([r if r is not None else lr for r, lr in zip(own, link_radius, strict=True)])
-
-
-def body_bounds(template: BodyTemplate, scale: float) -> tuple[np.ndarray, np.ndarray]:
-    """The corners (low, high) of the body's box in its own frame (m), contact radii included."""
-    if not template.nodes:
-        return np.zeros(3), np.zeros(3)
-    local = np.array([n.at for n in template.nodes], dtype=np.float64) * scale
-    radius = contact_radii(template)[:, None] * scale
-    return (local - radius).min(axis=0), (local + radius).max(axis=0)
-
-
 def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float) -> None:
     """Refuse (SceneError, with the limit and the way out) a body past MAX_BODIES or MAX_EXTENT.
 
@@ -73,7 +52,7 @@ def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float
     if bodies >= MAX_BODIES:
         raise SceneError(f"cannot add '{name}': the scene already has {bodies} bodies, the most it may "
                          f"hold (MAX_BODIES); remove some first")  # fmt: skip
-    low, high = body_bounds(template, scale)
+    low, high = template.bounds(scale)
     extent = float((high - low).max())
     if not extent <= MAX_EXTENT:  # NaN too
         across = f"{extent:.0f}" if extent < 1e6 else f"{extent:.3g}"  # a radius of 1e300 too
@@ -88,7 +67,7 @@ def crowding(scene: Scene, template: BodyTemplate, scale: float, position, facin
     The server refuses a spawn into a pile (see ``twig_ecs.server.methods.MAX_CROWD``): a
     few hundred bodies at one spot make each step take seconds.
     """
-    low, high = body_bounds(template, scale)
+    low, high = template.bounds(scale)
     corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1])
                         for z in (low[2], high[2])])  # fmt: skip
     world = corners @ yaw_matrix(facing).T + np.asarray(position, dtype=np.float64)
@@ -149,7 +128,7 @@ def spawn_body(
     nodes.lock_pos[rows] = world
     nodes.body[rows] = body
     nodes.color[rows] = body_color
-    radii = contact_radii(template)  # the node's own, or the fattest collidable link touching it
+    radii = template.contact_radii()  # the node's own, or the fattest collidable link touching it
     for k, spec in enumerate(template.nodes):
         i = first + k
         m = spec.mass * mass_scale

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from twig_ecs.components import PainSensor
 from twig_ecs.validate import (
     between,
@@ -143,18 +145,31 @@ class BodyTemplate:
         """Node names in row order."""
         return tuple(n.name for n in self.nodes)
 
+    def contact_radii(self) -> np.ndarray:
+        """Each node's contact radius at the reference height: its own, or its fattest colliding link's."""
+        index = {n.name: k for k, n in enumerate(self.nodes)}
+        link_radius = np.zeros(len(self.nodes))
+        for link in self.links:
+            if link.collide:
+                for end in (link.a, link.b):
+                    link_radius[index[end]] = max(link_radius[index[end]], link.radius)
+        own = [n.radius for n in self.nodes]
+        return np.array([r if r is not None else lr for r, lr in zip(own, link_radius, strict=True)])
+
+    def bounds(self, scale: float) -> tuple[np.ndarray, np.ndarray]:
+        """The corners (low, high) of the body's box in its own frame (m) at ``scale`` (height /
+        reference height), contact radii included."""
+        if not self.nodes:
+            return np.zeros(3), np.zeros(3)
+        local = np.array([n.at for n in self.nodes], dtype=np.float64) * scale
+        radius = self.contact_radii()[:, None] * scale
+        return (local - radius).min(axis=0), (local + radius).max(axis=0)
+
     def span(self, height: float | None = None) -> float:
         """How far across (m) the body is at ``height`` (default: its own): the largest side
-        of the box holding every node's sphere (its radius, or its fattest colliding link's)."""
-        radius = {n.name: n.radius or 0.0 for n in self.nodes}
-        derived = {n.name for n in self.nodes if n.radius is None}
-        for link in self.links:
-            for end in (link.a, link.b):
-                if link.collide and end in derived:
-                    radius[end] = max(radius[end], link.radius)
-        sides = [max(n.at[axis] + radius[n.name] for n in self.nodes)
-                 - min(n.at[axis] - radius[n.name] for n in self.nodes) for axis in range(3)]  # fmt: skip
-        return max(sides) * (height or self.height) / self.reference_height
+        of the box holding every node's contact sphere (:meth:`bounds`)."""
+        low, high = self.bounds((height or self.height) / self.reference_height)
+        return float((high - low).max())
 
 
 def read_damping(doc: YDict, key: str, path: str, default: Damping | None) -> Damping | None:
