@@ -159,7 +159,7 @@ entities:
   - {name: rock, body: boulder}
   - {name: ball, body: ball, position: [3, 1, 0]}
 """)
-    with pytest.raises(SceneError, match=r"boulder.yaml:9: entities\[0\].body: .* 500 m across .*MAX_EXTENT"):
+    with pytest.raises(SceneError, match=r"boulder.yaml:9: entities\[0\].body: .* 500 m across.*MAX_EXTENT"):
         Scene.load(scene)
     run = subprocess.run([sys.executable, "-m", "twig_ecs", "run", str(scene), "--seconds", "0.1"],
                          capture_output=True, text=True, timeout=120)  # fmt: skip
