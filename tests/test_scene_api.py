@@ -155,3 +155,15 @@ def test_spawn_starts_a_character_doing_its_starting_commands(empty_scene):
     with pytest.raises(TwigError, match="no entity named 'nobody'"):
         empty_scene.spawn("humanoid", name="bob", position=(3, 0, 0), character={"look_at": "nobody"})
     assert "bob" not in empty_scene.entity_names, "no half-made character is left behind"
+
+
+def test_a_bad_seed_or_an_unwritable_name_from_python_is_refused_with_a_clear_error(empty_scene):
+    from twig_ecs.errors import SceneError
+
+    for seed in (-1, 2**64, 1.5, "0", True):
+        with pytest.raises(SceneError, match="a seed is a whole number from 0 to"):
+            Scene(seed=seed)
+    with Scene(seed=np.int64(7)) as scene:
+        assert scene.seed == 7
+    with pytest.raises(SceneError, match="lone surrogate"):
+        empty_scene.spawn("ball", name="\ud800")  # a trace or a snapshot could not write it out

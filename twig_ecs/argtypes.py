@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from twig_ecs.validate import MAX_SEED
+
 
 def seconds_number(text: str) -> float:
     """An argparse type: a number of seconds (the command checks its range)."""
@@ -21,10 +23,6 @@ def positive_seconds(text: str) -> float:
     if not 0 < value <= 86400:
         raise argparse.ArgumentTypeError(f"seconds must be > 0 and at most 86400, got {text}")
     return value
-
-
-#: Largest seed: numpy's generators take any whole number >= 0; this one fits 64 bits.
-MAX_SEED = 2**63 - 1
 
 
 def seed_number(text: str) -> int:

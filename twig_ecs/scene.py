@@ -41,6 +41,7 @@ from twig_ecs.spawn import spawn_body
 from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
 from twig_ecs.trust import trusting
+from twig_ecs.validate import seed as seed_value
 from twig_ecs.validate import suggest
 from twig_ecs.yamldoc import YDict
 
@@ -78,7 +79,10 @@ class Scene:
                 raise TwigError(f"Scene(plugins=...) takes Plugin objects, got {plugin!r}"
                                 " (write PhysicsPlugin(), not PhysicsPlugin)")  # fmt: skip
         self.name = name
-        self.seed = seed
+        try:
+            self.seed = seed_value(seed)
+        except ValueError as exc:
+            raise SceneError(f"Scene(seed={seed!r}): {exc}") from None
         self.settings = settings or Settings()
         self.library = library or ContentLibrary()
         self.state = PhysicsState()

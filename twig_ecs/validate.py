@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import numbers
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from typing import Any, NoReturn
@@ -149,10 +150,25 @@ def integer(lo: int, hi: int) -> Callable[[Any], int]:
     return read
 
 
+#: Largest random seed: numpy's generators take any whole number >= 0; this one fits 64 bits.
+MAX_SEED = 2**63 - 1
+
+
+def seed(value: Any) -> int:
+    """A random seed: a whole number from 0 to :data:`MAX_SEED`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 0 <= value <= MAX_SEED:
+        raise ValueError(f"a seed is a whole number from 0 to {MAX_SEED}")
+    return int(value)
+
+
 def text(value: Any) -> str:
-    """A non-empty string."""
+    """A non-empty string of valid Unicode (no lone surrogate, which cannot be written out)."""
     if not isinstance(value, str) or not value.strip():
         raise ValueError("a non-empty string")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise ValueError("valid Unicode text (it holds a lone surrogate such as \\ud800)") from None
     return value
 
 

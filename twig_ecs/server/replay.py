@@ -48,6 +48,7 @@ from twig_ecs.server.core import Server
 from twig_ecs.server.methods import bind, find_method
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.trust import loading_data
+from twig_ecs.validate import MAX_SEED
 from twig_ecs.yamldoc import MAX_BYTES as MAX_YAML_BYTES
 
 FORMAT_VERSION = 1
@@ -59,8 +60,6 @@ MAX_REPLAY_BYTES = 8 * 1024 * 1024
 #: Most YAML text a replay may embed (scene and content files together): each file is parsed
 #: when the scene loads, at up to a second per 256 KiB.
 MAX_EMBEDDED_BYTES = 512 * 1024
-#: Largest seed (numpy's generators take any whole number >= 0; this fits 64 bits).
-MAX_SEED = 2**63 - 1
 #: Frames stepped between two progress reports while replaying.
 PROGRESS_FRAMES = 600
 #: Methods whose effect on the world is only the passing of time (already in the frame numbers).
