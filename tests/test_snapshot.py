@@ -342,3 +342,19 @@ def test_caches_of_rows_never_come_from_a_file(scenes, monkeypatch):
     restored.run(0.5)  # made again: no out-of-range row reaches a kernel
     (copy,) = [s for s in restored.schedule.systems() if isinstance(s, CollideSystem)]
     assert copy._scratch["lo"].shape[1] == 3  # noqa: SLF001
+
+
+def test_a_snapshot_at_its_size_limits_is_refused_in_seconds():
+    """A file built to cost the most to read per byte: a structure of a million tiny values."""
+    import time
+
+    from twig_ecs import worlddata
+
+    many = '["l",0,[' + ",".join(['["l",1,[]]'] + ['["r",1]'] * (worlddata.MAX_VALUES + 10)) + "]]"
+    assert len(many) < worlddata.MAX_STRUCTURE_BYTES
+    started = time.perf_counter()
+    with pytest.raises(SnapshotError, match="more than 1000000 values"):
+        Scene.restore(_crafted(json.loads(many)))
+    assert time.perf_counter() - started < 20  # about 2 s here; the bound is loose for loaded machines
+    with pytest.raises(SnapshotError, match="structure is .* bytes, over 16 MiB"):
+        Scene.restore(_crafted(["b", "A" * (worlddata.MAX_STRUCTURE_BYTES + 1)]))

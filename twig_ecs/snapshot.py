@@ -63,8 +63,11 @@ FORMAT_VERSION = 4  # 2: a scene holds its plugins and an event bus; nodes and l
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
-#: The largest snapshot file read (a corrupt length or a device file cannot make us read more).
-MAX_BYTES = 1 << 30
+#: The largest snapshot file read (a corrupt length or a device file cannot make us read more):
+#: 10 000 walkers (the most bodies a scene may have) take about 125 MB.
+MAX_BYTES = 256 << 20
+#: The largest meta (scene name, plug-in list, dropped subscribers...).
+MAX_META_BYTES = 1 << 20
 #: Scene attributes that belong to this process, not to the world.
 _TRANSIENT = ("_world", "_installed", "_closed")
 
@@ -223,6 +226,10 @@ def _split(data: bytes) -> tuple[dict[str, Any], bytes]:
         raise SnapshotError(
             f"snapshot format version {version}; this twig-ecs reads version {FORMAT_VERSION} "
             "(write it again with the twig-ecs that reads it, or run the twig-ecs that wrote it)"
+        )
+    if meta_len > MAX_META_BYTES:
+        raise SnapshotError(
+            f"snapshot corrupt: its meta is {meta_len} bytes, over {MAX_META_BYTES >> 10} KiB"
         )
     at = _HEAD.size + meta_len
     if len(data) < at + _LEN.size + _DIGEST:

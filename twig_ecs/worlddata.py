@@ -71,8 +71,13 @@ _PLAIN_CLASSES: dict[str, type] = {
 #: numpy dtypes a snapshot may hold: plain numbers only (byte order, kind, size).
 _DTYPE = re.compile(r"^[<>|=][biufc][0-9]{1,2}$")
 _GENERATORS = ("PCG64", "PCG64DXSM", "MT19937", "Philox", "SFC64")
-#: Most items of one container, and most arrays: a corrupt length cannot make us allocate more.
+#: Most items of one array: a corrupt length cannot make us allocate more.
 MAX_ITEMS = 50_000_000
+#: Most values a structure may hold, and most bytes of it: reading costs about a microsecond a
+#: value, so a file at these limits is read (or refused) in a few seconds. A world of 3000
+#: walkers holds about 200 000 values in 4 MB; 10 000 bodies (the most a scene may have) fit.
+MAX_VALUES = 1_000_000
+MAX_STRUCTURE_BYTES = 16 << 20
 
 
 class DataError(TwigError):
@@ -294,7 +299,11 @@ def encode(root: Any, schema: Schema, **options: Any) -> tuple[bytes, bytes, lis
     """(structure as UTF-8 JSON, array blob, plug-in modules met) of ``root``."""
     encoder = Encoder(schema, **options)
     structure = encoder.encode(root)
+    if len(encoder.memo) > MAX_VALUES // 2:  # a rough guard: objects are about half the values
+        raise DataError(f"the world holds {len(encoder.memo)} objects, too many to read back")
     text = json.dumps(structure, separators=(",", ":"), allow_nan=True, ensure_ascii=False)
+    if len(text) > MAX_STRUCTURE_BYTES:
+        raise DataError(f"its structure would be {len(text)} bytes, over {MAX_STRUCTURE_BYTES >> 20} MiB")
     return text.encode("utf-8", "surrogatepass"), bytes(encoder.blob), encoder.plugins
 
 
@@ -308,9 +317,13 @@ class Decoder:
         self.schema = schema
         self.blob = memoryview(blob)
         self.memo: dict[int, Any] = {}
+        self.values = 0
 
     def decode(self, node: Any) -> Any:
         """The object a JSON node stands for (DataError when it breaks the schema)."""
+        self.values += 1
+        if self.values > MAX_VALUES:
+            raise DataError(f"it holds more than {MAX_VALUES} values, the most a world may")
         if node is None or type(node) in (bool, int, float, str):
             return node
         if type(node) is not list or not node or not isinstance(node[0], str):
@@ -507,6 +520,8 @@ class Decoder:
 
 def decode(structure: bytes, blob: bytes, schema: Schema) -> Any:
     """The object graph of :func:`encode`'s output; DataError for anything the schema does not allow."""
+    if len(structure) > MAX_STRUCTURE_BYTES:
+        raise DataError(f"its structure is {len(structure)} bytes, over {MAX_STRUCTURE_BYTES >> 20} MiB")
     try:
         tree = json.loads(structure.decode("utf-8", "surrogatepass"))
         return Decoder(schema, blob).decode(tree)
