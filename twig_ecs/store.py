@@ -16,8 +16,6 @@ from operator import itemgetter
 
 import numpy as np
 
-from twig_ecs import kernelmath
-
 # Node flags (bit masks in PhysicsState.node_flags).
 NODE_LOCKED = 1  # held at node_lock_pos (static friction, fixed pivots)
 NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
@@ -323,12 +321,16 @@ INDEX_COLUMNS: dict[tuple[str, str], tuple[str, int]] = {
     ("characters", "arm_node"): ("nodes", -1),
 }  # fmt: skip
 
-#: Columns of named modes, and how many there are: (block, column) -> count.
-MODE_COLUMNS: dict[tuple[str, str], int] = {
-    ("characters", "mode"): kernelmath.LIMP + 1, ("characters", "gaze_mode"): kernelmath.GAZE_NODE + 1,
-    ("characters", "arm_mode"): len(kernelmath.ARM_MODES), ("characters", "last_step"): 2,
-    ("nodes", "move_gravity"): MOVE_GAIT_ARC + 1,
-}  # fmt: skip
+
+def mode_columns() -> dict[tuple[str, str], int]:
+    """Columns of named modes, and how many there are: (block, column) -> count."""
+    from twig_ecs import kernelmath  # here: the store is read by `twig --help`, which loads no numba
+
+    return {
+        ("characters", "mode"): kernelmath.LIMP + 1, ("characters", "gaze_mode"): kernelmath.GAZE_NODE + 1,
+        ("characters", "arm_mode"): len(kernelmath.ARM_MODES), ("characters", "last_step"): 2,
+        ("nodes", "move_gravity"): MOVE_GAIT_ARC + 1,
+    }  # fmt: skip
 
 
 def check_store(state: PhysicsState) -> None:
@@ -370,7 +372,7 @@ def check_store(state: PhysicsState) -> None:
     if np.any(bodies >= counts["bodies"]) or np.any(colliders >= counts["colliders"]):
         raise ValueError("colliders.ignore names a body or collider that does not exist")
     _check_rows(state.colliders.local[: counts["colliders"]], 0, 64, "colliders.local")
-    for (name, column), choices in MODE_COLUMNS.items():  # modes the controllers look up by value
+    for (name, column), choices in mode_columns().items():  # modes the controllers look up by value
         _check_rows(getattr(state, name).arrays[column][: counts[name]], 0, choices, f"{name}.{column}")
     nodes = state.nodes
     for column in ("pos", "prev", "lock_pos"):
