@@ -50,7 +50,7 @@ GOOD_BODY = """
         pytest.param(
             "twig: 1\nentities:\n  - name: a\n    body: humanoid\n    height: tall\n",
             5,
-            ["entities[0].height", "expected a number from 0.01 to 100", "got 'tall' (str)"],
+            ["entities[0].height", "expected a number from 0.01 to 100", "got 'tall' (text)"],
             id="wrong-type",
         ),
         pytest.param(
@@ -212,3 +212,20 @@ def test_hostile_sizes_are_refused_with_a_message(tmp_path):
         )
     message = str(load_error(write(tmp_path, bomb, "bomb.yaml")))
     assert "document too large" in message
+
+
+def test_validate_reports_every_unknown_key_of_an_entity_in_the_users_words(tmp_path, capsys):
+    """`hieght` and `colour` both (only the first was said), and a list is a 'list', not a 'YList'."""
+    from twig_ecs.cli import main
+
+    path = tmp_path / "typos.yaml"
+    path.write_text("twig: 1\nentities:\n  - {name: a, body: humanoid, hieght: 1.5, colour: [1, 0, 0]}\n"
+                    "  - {name: b, body: ball, position: [1, 2]}\n")  # fmt: skip
+    assert main(["validate", str(path)]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err == [
+        f"error: {path}:3: entities[0].hieght: unknown key 'hieght' (did you mean 'height'?)",
+        f"error: {path}:3: entities[0].colour: unknown key 'colour' (did you mean 'color'?)",
+        f"error: {path}:4: entities[1].position: expected a list of three numbers [x, y, z], "
+        "got [1, 2] (list)",
+    ]

@@ -78,11 +78,17 @@ def join(path: str, key: Any) -> str:
     return f"{path}.{key}" if path else str(key)
 
 
+#: What a value read from YAML is called in messages (the reader's own classes are not the user's words).
+_KIND_NAMES = {"YDict": "mapping", "YList": "list", "dict": "mapping", "str": "text", "NoneType": "nothing",
+               "bool": "true/false", "int": "whole number", "float": "number"}  # fmt: skip
+
+
 def _describe(value: Any) -> str:
     text = repr(value)
     if len(text) > 40:
         text = text[:37] + "..."
-    return f"{text} ({type(value).__name__})"
+    kind = type(value).__name__
+    return f"{text} ({_KIND_NAMES.get(kind, kind)})"
 
 
 # -- value kinds: each takes a raw value, returns the clean one or raises ValueError(expected)
@@ -250,8 +256,11 @@ def read(container: Any, key: Any, path: str, kind: Callable[[Any], Any], defaul
 
 
 def check_keys(doc: YDict, path: str, allowed: Iterable[str], what: str = "key") -> None:
-    """Fail on the first key of ``doc`` that is not ``allowed``."""
+    """Fail on every key of ``doc`` that is not ``allowed`` (each with its line, all at once)."""
     allowed = list(allowed)
+    errors: list[SceneError] = []
     for key in doc:
         if key not in allowed:
-            fail(doc, key, join(path, key), f"unknown {what} '{key}'" + suggest(str(key), allowed))
+            with gather(errors):
+                fail(doc, key, join(path, key), f"unknown {what} '{key}'" + suggest(str(key), allowed))
+    raise_all(errors)
