@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene
-from twig_ecs.cli import ReplayProgress, main
+from twig_ecs.cli import main
 from twig_ecs.errors import SceneError
 from twig_ecs.files import FileReadError, read_bounded
+from twig_ecs.progress import Progress
 from twig_ecs.replay import MAX_FRAMES, ReplayError, read_replay, replay
 from twig_ecs.server.replay import MAX_EMBEDDED_BYTES, MAX_REPLAY_BYTES
 from twig_ecs.yamldoc import MAX_BYTES, MAX_NODES
@@ -275,8 +276,8 @@ def test_a_replay_at_its_size_limit_is_read_and_run_within_5_s(tmp_path, capsys)
 
 
 def test_a_long_replay_reports_progress_on_stderr_and_keeps_the_json_clean(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(ReplayProgress, "QUIET", 0.0)
-    monkeypatch.setattr(ReplayProgress, "EVERY", 0.0)
+    monkeypatch.setattr(Progress, "QUIET", 0.0)
+    monkeypatch.setattr(Progress, "EVERY", 0.0)
     path = write_replay(tmp_path / "long.twigreplay", {"frame": 700, "method": "ping"},
                         {"end": 1800, "state_hash": "x"})  # fmt: skip
     code, err, out, _ = cli(capsys, "run", "--replay", str(path), "--report", "json")
@@ -373,3 +374,13 @@ def test_a_formula_stays_exact_within_its_bounds():
     assert _evaluate("$(round(1234.5, -2))", {}, fail) == 1200.0
     assert _evaluate("$(round(2, 64))", {}, fail) == 2
     assert math.isclose(_evaluate("$(2 ** 64 / 2 ** 63)", {}, fail), 2.0)
+
+
+def test_a_long_run_reports_progress_even_when_stderr_is_a_log(capsys, monkeypatch):
+    """`twig run ... 2> log` said nothing until it ended (progress was for terminals only)."""
+    monkeypatch.setattr(Progress, "QUIET", 0.0)
+    monkeypatch.setattr(Progress, "EVERY", 0.0)
+    code, err, out, _ = cli(capsys, "run", "empty", "--seconds", "2", "--report", "json")
+    assert code == 0 and json.loads(out)["frames"] == 120  # stdout: the report alone
+    assert "empty: frame 60 of 120 (50%, 1 s simulated)" in err  # err: its lines, one a report
+    assert not any("\r" in line for line in err)

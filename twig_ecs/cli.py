@@ -6,12 +6,11 @@ import argparse
 import importlib
 import json
 import sys
-import time
 from collections.abc import Sequence
-from typing import TextIO
 
 from twig_ecs.argtypes import positive_seconds, seconds_number, seed_number  # noqa: F401 - seconds_number: old home
 from twig_ecs.errors import TwigError
+from twig_ecs.progress import Progress
 from twig_ecs.trust import checking_only, is_trusted, trusting
 
 
@@ -116,7 +115,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         scene = load(args.load)
     report = run_with_report(args.scene, args.seconds, seed=args.seed, content=args.content,
-                             progress=args.report != "json" and sys.stderr.isatty(), trace=args.trace,
+                             progress=True, trace=args.trace,
                              plot=args.plot, parameters=args.parameters, limits=limits, scene=scene,
                              save=args.save)  # fmt: skip
     if args.report == "json":
@@ -181,7 +180,7 @@ def _replay(args: argparse.Namespace) -> int:
     """Replay a recorded server session (``--replay FILE``); 0 when it ends in the recorded state."""
     from twig_ecs.server.replay import replay
 
-    progress = ReplayProgress(sys.stderr)
+    progress = Progress(sys.stderr, "replay")
     try:
         result = replay(args.replay, progress=progress)
     finally:
@@ -196,38 +195,6 @@ def _replay(args: argparse.Namespace) -> int:
             diverged = result["diverged"]
             print(f"{diverged} command(s) succeeded or failed unlike the recording", file=sys.stderr)
     return 0 if result["match"] else 1
-
-
-class ReplayProgress:
-    """Says on ``stream`` (stderr) how far a long replay has come: nothing for its first
-    :attr:`QUIET` seconds, then every :attr:`EVERY` seconds - in place on a terminal, as
-    lines in a log. stdout (``--report json``) never sees it."""
-
-    QUIET = 2.0
-    EVERY = 1.0
-
-    def __init__(self, stream: TextIO) -> None:
-        self.stream, self.clock = stream, time.monotonic
-        self.started = self.last = self.clock()
-        self.live = bool(getattr(stream, "isatty", lambda: False)())
-        self.shown = False
-
-    def __call__(self, frame: int, last: int) -> None:
-        now = self.clock()
-        every = self.EVERY if self.live else 10 * self.EVERY
-        if now - self.started < self.QUIET or now - self.last < every:
-            return
-        self.last = now
-        share = 100 * frame / max(last, 1)
-        text = f"replay: frame {frame} of {last} ({share:.0f}%, {frame / 60:.0f} s simulated)"
-        self.stream.write(f"\r{text}" if self.live else text + "\n")
-        self.stream.flush()
-        self.shown = True
-
-    def done(self) -> None:
-        """End the line a terminal's progress was written on."""
-        if self.shown and self.live:
-            self.stream.write("\n")
 
 
 def _add_soak_args(p: argparse.ArgumentParser) -> None:

@@ -11,6 +11,7 @@ import numpy as np
 
 from twig_ecs.clock import FixedStepClock
 from twig_ecs.metrics import StoryRecorder
+from twig_ecs.progress import Progress
 from twig_ecs.scene import Scene
 from twig_ecs.snapshot import save as save_snapshot
 from twig_ecs.soak import Health, SoakLimits
@@ -55,6 +56,7 @@ def _measure(
     scene: Scene, seconds: float, progress: bool, recorder=None, limits: SoakLimits | None = None
 ) -> dict:
     frames = FixedStepClock(scene.dt).steps_for(seconds)
+    shown = Progress(sys.stderr, scene.name) if progress else None  # a line now and then after 2 s
     step_ms = np.empty(frames)
     health = Health(scene, limits)
     scene.step(0)  # install systems and compile kernels outside the timings
@@ -68,10 +70,10 @@ def _measure(
         health.update()
         if health.nan or health.violation is not None:
             break
-        if progress and f % 60 == 0:
-            print(f"\r{scene.name}: {f / 60:6.1f} / {seconds:.1f} s", end="", file=sys.stderr, flush=True)
-    if progress:
-        print(file=sys.stderr)
+        if shown is not None:
+            shown(f + 1, frames)
+    if shown is not None:
+        shown.done()
     done = step_ms[: f + 1]
     report = {
         "scene": scene.name,
