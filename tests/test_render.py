@@ -142,3 +142,21 @@ def test_a_camera_eye_at_negative_x_parses_as_written_in_the_docs(tmp_path, caps
     argv = ["render", "empty", "--seconds", "0.05", "--size", "160x90", "-o", str(out)]
     assert main([*argv, "--camera", "-4.45,1.42,2.78@-3.72,0.45,5.28"]) == 0
     assert out.exists() and "wrote" in capsys.readouterr().out
+
+
+def test_a_gif_keeps_the_colours_of_the_bodies(tmp_path):
+    """The GIF's palette turned the blue parent and the green deck grey (median cut)."""
+    png, gif = tmp_path / "yard.png", tmp_path / "yard.gif"
+    assert main(["render", "schoolyard", "--seconds", "0.2", "--size", "480x270", "-o", str(png)]) == 0
+    assert main(["render", "schoolyard", "--seconds", "0.2", "--size", "480x270", "--fps", "10",
+                 "-o", str(gif)]) == 0  # fmt: skip
+
+    def coloured(image: Image.Image) -> np.ndarray:
+        a = np.asarray(image.convert("RGB")).astype(int)
+        return (a.max(axis=2) - a.min(axis=2)) > 60
+
+    with Image.open(png) as still, Image.open(gif) as clip:
+        clip.seek(clip.n_frames - 1)  # the same moment as the PNG
+        want, got = coloured(still), coloured(clip)
+    assert want.sum() > 100, "the frame shows coloured bodies"
+    assert (want & got).sum() > 0.6 * want.sum()

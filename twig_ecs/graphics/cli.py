@@ -33,8 +33,9 @@ def register_commands(subparsers, add_scene_args: Callable[..., None]) -> None:
     p.add_argument("--size", default="1280x720", metavar="WxH", help="image size (default 1280x720)")
     p.add_argument("--fps", type=float, default=None,
                    help="frames per second of a GIF/MP4 (default 15 for GIF, 30 for MP4)")  # fmt: skip
-    p.add_argument("--camera", default="auto", metavar="SPEC",
-                   help="auto (frame the whole scene), action (the characters), follow:NAME, "
+    p.add_argument("--camera", default="action", metavar="SPEC",
+                   help="action (default: the characters, the tallest a third of the picture high), auto "
+                   "(the whole scene), follow:NAME, "
                    "orbit:YAW,PITCH[,DIST] or EX,EY,EZ[@TX,TY,TZ] (eye and target, m)")  # fmt: skip
     p.set_defaults(func=cmd_render)
 

