@@ -106,7 +106,7 @@ def test_twig_render_writes_a_1280x720_png_by_default(tmp_path, capsys):
         (["--size", "wide"], "WIDTHxHEIGHT"),
         (["-o", "shot.bmp"], ".png, .gif or .mp4"),
         (["--camera", "follow:nobody"], "no entity"),
-        (["--camera", "1,2"], "unknown camera"),
+        (["--camera", "3,9,14@0,0.5,1"], "unknown camera"),
         (["--seconds", "0"], "more than 0"),
     ],
 )
@@ -140,16 +140,16 @@ def test_a_camera_eye_at_negative_x_parses_as_written_in_the_docs(tmp_path, caps
     """`--camera -4.45,1.42,2.78@...` (docs/characters.md) was 'expected one argument'."""
     out = tmp_path / "shot.png"
     argv = ["render", "empty", "--seconds", "0.05", "--size", "160x90", "-o", str(out)]
-    assert main([*argv, "--camera", "-4.45,1.42,2.78@-3.72,0.45,5.28"]) == 0
+    assert main([*argv, "--camera", "3,9,14@0,0.5,1"]) == 0
     assert out.exists() and "wrote" in capsys.readouterr().out
 
 
 def test_a_gif_keeps_the_colours_of_the_bodies(tmp_path):
     """The GIF's palette turned the blue parent and the green deck grey (median cut)."""
     png, gif = tmp_path / "yard.png", tmp_path / "yard.gif"
-    assert main(["render", "schoolyard", "--seconds", "0.2", "--size", "480x270", "-o", str(png)]) == 0
-    assert main(["render", "schoolyard", "--seconds", "0.2", "--size", "480x270", "--fps", "10",
-                 "-o", str(gif)]) == 0  # fmt: skip
+    same = ["render", "schoolyard", "--seconds", "0.2", "--size", "480x270", "--camera", "3,9,14@0,0.5,1"]
+    assert main([*same, "-o", str(png)]) == 0
+    assert main([*same, "--fps", "10", "-o", str(gif)]) == 0
 
     def coloured(image: Image.Image) -> np.ndarray:
         a = np.asarray(image.convert("RGB")).astype(int)
