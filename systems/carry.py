@@ -27,9 +27,16 @@ FETCH_TIME = 4.0  # s to get a hand on it once there
 
 
 def fetch(character, goal: Goal, target: str, hand: str) -> bool:
-    """Approach ``target`` and grab it in ``hand``; True once held."""
-    if hand in character.holding:
+    """Approach ``target`` and grab it in ``hand``; True once held.
+
+    A hand that holds something else lets go of it first (it held on before, and the goal
+    "carried" what it already had).
+    """
+    held = character.holding.get(hand)
+    if held == target:
         return True
+    if held is not None:
+        character.release(hand)
     m = goal.memory
     scale = character.scale
     character.look_at(target)
