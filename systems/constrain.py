@@ -34,6 +34,10 @@ from twig_ecs.system import System
 GRAB_CLOSING = 0.6
 #: Distance (m) within which a node counts as touching the ground.
 CONTACT_SLOP = 1e-3
+#: Depth (m) in the ground that a step may leave for the next step's ground passes
+#: (:func:`lift_out_of_ground`). The schoolyard's nodes end a step at most a millimetre or two
+#: under (feet after its first step, a knee now and then): for them nothing changes.
+GROUND_SLOP = 0.01
 #: Bodies from which the link and limit passes split by body across threads: a body's rows
 #: touch only its own nodes, so bodies can be projected at once and come out to the last
 #: bit as one after the other would leave them. Fewer bodies are done on one thread: a
@@ -114,15 +118,16 @@ class Constraints(NamedTuple):
     limits: LimitColumns
     axles: AxleColumns
     plan: BodyPlan
+    gripped: np.ndarray  # (nodes,) bool: an end of a grab joint (:func:`gripped_nodes`)
 
 
 def constraints_of(state) -> tuple:
     """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
     plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
     :class:`LimitColumns`, :class:`AxleColumns` and :class:`BodyPlan` (see
-    :func:`~twig_ecs.store.columns`); :func:`named_constraints` names them again. Made once
-    for both systems of a step, and again only when rows come or go (arrays are replaced
-    only then)."""
+    :func:`~twig_ecs.store.columns`), then the :func:`gripped_nodes`;
+    :func:`named_constraints` names them again. Made once for both systems of a step, and
+    again only when rows come or go or a grab joint is made (arrays are replaced only then)."""
     n, links, limits = state.nodes, state.links, state.limits
     # threads only from the main thread: numba's default thread pool must not be entered by two
     # threads at once (it ends the process), and a scene stepped elsewhere may not be the only one
@@ -133,13 +138,28 @@ def constraints_of(state) -> tuple:
     if known is not None and known[0] == key:
         return known[1]
     args = (columns(NodeColumns, n), columns(LinkColumns, links), columns(LimitColumns, limits),
-            columns(AxleColumns, n), body_plan(state, parallel=main and threads > 1))  # fmt: skip
+            columns(AxleColumns, n), body_plan(state, parallel=main and threads > 1),
+            gripped_nodes(state))  # fmt: skip
     _KNOWN[state] = (key, args)
     return args
 
 
 #: Per store: (its layout key, its :func:`constraints_of` tuple).
 _KNOWN: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def gripped_nodes(state) -> np.ndarray:
+    """Per node row: is it an end of a grab joint (a hand that holds, or the node it holds)?
+
+    The joint welds the two into one point; a joint limit whose middle node is held leaves
+    the bending to the hand (see :func:`project_limit_rows`).
+    """
+    nodes, links = state.nodes, state.links
+    gripped = np.zeros(nodes.count, dtype=np.bool_)
+    grabs = np.flatnonzero(links.flags[: links.count] & LINK_GRAB)
+    gripped[links.a[grabs]] = True
+    gripped[links.b[grabs]] = True
+    return gripped
 
 
 def body_plan(state, parallel: bool = True) -> tuple:
@@ -364,11 +384,21 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
 
 
 @njit(cache=True, inline="always")
-def project_limit_rows(nodes, limits, start, end):
+def project_limit_rows(nodes, limits, gripped, start, end):
     """One pass over hinge limits (knees, elbows) ``start``..``end``.
 
     The mid node's bend (its offset from the root-tip line) must point within the arc
     [arc_min, arc_max] (at most 180 degrees wide) around the reference direction.
+
+    A limit's moves change ``prev`` too (:func:`stop_lag`, the repairs): they are meant to
+    stay. A limb's middle held by a grab joint (``gripped``: a knee, an elbow in someone's
+    hand) is put back by its joint every pass, so whatever the limit moved of it came back
+    as speed, pass after pass (the goal melee: a doll held by its knee and its pelvis in two
+    hands, the knee bent the wrong way, 70 m/s in one step; a child's elbow in a grown-up's
+    hand, 82 m/s). So the hand bends that joint, and its limit lets it. (Kept still, with
+    the stop on the limb's ends, a hip was moved 27 cm against the links that tie it to the
+    pelvis: 1 kJ in one pass. A held root or tip is moved as any other: counted as fixed,
+    it pushed from nowhere - a grown-up holding hands was flung 1 m at 6 m/s.)
     """
     pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
     root, mid, tip, frame = limits.root, limits.mid, limits.tip, limits.frame
@@ -377,6 +407,8 @@ def project_limit_rows(nodes, limits, start, end):
         r = root[k]
         m = mid[k]
         t = tip[k]
+        if gripped[m]:
+            continue
         # body frame: L points to the body's left, U up, F = L x U forward
         lx = pos[frame[k, 0], 0] - pos[frame[k, 1], 0]
         ly = pos[frame[k, 0], 1] - pos[frame[k, 1], 1]
@@ -518,39 +550,41 @@ def project_limit_rows(nodes, limits, start, end):
 
 
 @njit(cache=True)
-def project_limits(nodes, limits):
+def project_limits(nodes, limits, gripped):
     """One pass over all hinge limits (:func:`project_limit_rows`)."""
-    project_limit_rows(nodes, limits, 0, limits.count)
+    project_limit_rows(nodes, limits, gripped, 0, limits.count)
 
 
 @njit(cache=True, inline="always")
-def _project_chunk(nodes, links, limits, chunks, q, of_links):
+def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links):
     """Chunk ``q`` of a :class:`BodyPlan`: its link (``of_links``) or limit rows."""
     if of_links:
         project_link_rows(nodes, links, chunks[q, 0], chunks[q, 1])
     else:
-        project_limit_rows(nodes, limits, chunks[q, 0], chunks[q, 1])
+        project_limit_rows(nodes, limits, gripped, chunks[q, 0], chunks[q, 1])
 
 
 @njit(cache=True, parallel=True)
-def project_by_body(nodes, links, limits, chunks, groups, of_links):
+def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links):
     """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
     chunks at once, across threads, the runs one after the other."""
     for g in range(len(groups) - 1):
         lo, hi = groups[g], groups[g + 1]
         if hi - lo == 1:  # (a grab joint, or a lone body: no threads to start)
-            _project_chunk(nodes, links, limits, chunks, lo, of_links)
+            _project_chunk(nodes, links, limits, gripped, chunks, lo, of_links)
             continue
         for q in prange(lo, hi):
-            _project_chunk(nodes, links, limits, chunks, q, of_links)
+            _project_chunk(nodes, links, limits, gripped, chunks, q, of_links)
 
 
 @njit(cache=True)
 def links_pass(c):
     """One pass over every link of the :class:`Constraints` ``c`` (split by body when planned).
     (``bool(True)``, not ``True``: numba compiles a literal as another specialisation.)"""
-    if c.plan.parallel:
-        project_by_body(c.nodes, c.links, c.limits, c.plan.link_chunks, c.plan.link_groups, bool(True))  # noqa: UP018
+    plan = c.plan
+    if plan.parallel:
+        chunks, groups = plan.link_chunks, plan.link_groups
+        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(True))  # noqa: UP018
     else:
         project_links(c.nodes, c.links)
 
@@ -558,10 +592,12 @@ def links_pass(c):
 @njit(cache=True)
 def limits_pass(c):
     """One pass over every joint limit of ``c`` (split by body when planned)."""
-    if c.plan.parallel:
-        project_by_body(c.nodes, c.links, c.limits, c.plan.limit_chunks, c.plan.limit_groups, bool(False))  # noqa: UP018
+    plan = c.plan
+    if plan.parallel:
+        chunks, groups = plan.limit_chunks, plan.limit_groups
+        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(False))  # noqa: UP018
     else:
-        project_limits(c.nodes, c.limits)
+        project_limits(c.nodes, c.limits, c.gripped)
 
 
 @njit(cache=True)
@@ -606,6 +642,22 @@ def project_ground(nodes):
 
 
 @njit(cache=True)
+def lift_out_of_ground(nodes):
+    """Every free node more than GROUND_SLOP in the ground up onto it: the last word of a step
+    (the collide system's; the passes after the last ground pass may push nodes in).
+
+    It comes up at rest (``prev`` with it), as a node the ground stops: lifted with ``prev``
+    left below, it would fly out next step with the whole depth as speed. It marks no
+    contact and locks nothing (the ground passes do that)."""
+    pos, prev, radius, flags = nodes.pos, nodes.prev, nodes.radius, nodes.flags
+    for i in range(nodes.count):
+        r = radius[i]
+        if pos[i, 1] < r - GROUND_SLOP and not flags[i] & NODE_LOCKED:
+            pos[i, 1] = r
+            prev[i, 1] = max(prev[i, 1], r)
+
+
+@njit(cache=True)
 def relax_once(c):
     """One relaxation pass over the :class:`Constraints` ``c``: limits, axles, the ground, then
     links (and grab joints)."""
@@ -625,6 +677,7 @@ def named_constraints(args) -> Constraints:
         LimitColumns(*args[2]),
         AxleColumns(*args[3]),
         BodyPlan(*args[4]),
+        args[5],
     )
 
 

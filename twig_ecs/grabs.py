@@ -16,7 +16,8 @@ import numpy as np
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Grabbed, Released
-from twig_ecs.store import LINK_GRAB
+from twig_ecs.kernelmath import HANG
+from twig_ecs.store import LINK_GRAB, LINK_OFF
 
 if TYPE_CHECKING:
     from twig_ecs.handles import BodyHandle
@@ -24,6 +25,11 @@ if TYPE_CHECKING:
 
 #: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
 RELEASE_GRACE_STEPS = 20
+#: m a grip may be pulled beyond its length before it gives way (:func:`slip`): the grab
+#: joint's, or that of a link at either end (the arm that holds, the held thing's limb). In
+#: five minutes of the schoolyard (a carried doll, a merry-go-round's bars) the worst is 4.7 cm
+#: (seeds 0-3).
+GRIP_SLIP = 0.10
 
 
 def join(scene: Scene, h: BodyHandle, node: str, t: BodyHandle, target_node: str, standoff: float) -> int:
@@ -74,6 +80,48 @@ def release(scene: Scene, grab: int) -> None:
         if body.link_count:
             body.link_start = int(remap[body.link_start])
     state.rebuild_colliders()
+
+
+def slip(scene: Scene, limit: float = GRIP_SLIP) -> list[int]:
+    """Let go of every grip pulled more than ``limit`` m beyond its length - its grab
+    joint's, or that of a link at either of its ends; returns the joints' entities, released
+    as :func:`release` (a ``release`` event each).
+
+    A grab joint is a rigid link of no strength, projected after the body's own links. Two
+    hands that hold one light node (a doll's foot) and walk apart cannot both keep it:
+    projected one after the other, the node jumps from one hand to the other every pass,
+    and when one lets go it is flung across the gap (the goal melee: 1 m, 63 m/s). A child
+    dragging a grown-up who walks off keeps hold, and its arm stretches to 2.5 times its
+    length instead; a doll held by its knee against its holder's belly, pushed out by the
+    contacts, is pulled back 13 cm into the torso. Hands do not hold on like that: a grip
+    pulled too hard gives way.
+    """
+    state = scene.state
+    links, pos = state.links, state.nodes.pos
+    count = links.count
+    a, b, flags = links.a[:count], links.b[:count], links.flags[:count]
+    rows = np.flatnonzero(flags & LINK_GRAB)
+    if not len(rows):
+        return []
+    stretch = np.linalg.norm(pos[a[rows]] - pos[b[rows]], axis=1) - links.rest[rows]
+    # the worst stretch (m) of a rigid link at each held or holding node
+    gripped = np.zeros(state.nodes.count, dtype=bool)
+    gripped[a[rows]] = gripped[b[rows]] = True
+    own = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & (LINK_GRAB | LINK_OFF)) == 0)
+                         & (links.rest[:count] > 0))  # fmt: skip
+    pull = np.zeros(state.nodes.count)
+    own_stretch = np.linalg.norm(pos[a[own]] - pos[b[own]], axis=1) - links.rest[own]
+    np.maximum.at(pull, a[own], own_stretch)
+    np.maximum.at(pull, b[own], own_stretch)
+    tension = np.maximum(stretch, np.maximum(pull[a[rows]], pull[b[rows]]))
+    slipped = [int(links.entity[row]) for row in rows[tension > limit]]
+    for grab in slipped:
+        for _, character in esper.get_component(Character):
+            for hand, held in character.holding.items():
+                if held == grab:  # the arm that held it relaxes, as when its owner lets go
+                    state.characters.arm_mode[character.index, int(hand == "right")] = HANG
+        release(scene, grab)
+    return slipped
 
 
 def remove_body(scene: Scene, entity: int) -> None:

@@ -311,9 +311,10 @@ class Scene:
         """Advance ``n`` fixed steps of 1/60 s: the one step loop.
 
         Each step: release grace counts down, colliders are rebuilt if bodies or grabs
-        changed, the last step's events are dropped, then every system runs once in
-        schedule order. ``times``: also append each system's wall seconds to
-        ``times[name]`` (``twig bench``); timing a step never changes what it computes.
+        changed, the last step's events are dropped, grips pulled too far let go
+        (:func:`twig_ecs.grabs.slip`), then every system runs once in schedule order.
+        ``times``: also append each system's wall seconds to ``times[name]`` (``twig
+        bench``); timing a step never changes what it computes.
 
         Scenes stepped from several threads take turns, a step at a time: esper's
         current world is one per process, and a step must not find another scene's
@@ -337,6 +338,7 @@ class Scene:
             state.rebuild_colliders()
         self.bus.next_step()
         esper.clear_dead_entities()  # entities deleted with deferred delete go now
+        grab_joints.slip(self)  # grips the last step pulled too far give way
         if times is None:
             for system in self._installed:
                 system.process(dt)
