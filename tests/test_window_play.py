@@ -230,9 +230,12 @@ def test_recording_writes_a_playable_mp4_of_the_window(pyglet_window, tmp_path):
         viewer = window.viewer
         window.frame(elapsed=1 / 60)
         press_key(window, key.V)
+        window.frame(elapsed=1 / 15)  # the recording starts with this frame
+        started = viewer.scene.time
         for _ in range(15):
-            window.frame(elapsed=1 / 15)  # 1 s of wall time at 15 frames/s: 30 video frames
+            window.frame(elapsed=1 / 15)  # 1 s at 15 frames/s: 30 video frames after the first
         shown = window.read_frame()
+        recorded = viewer.scene.time - started
         press_key(window, key.V)
         window.frame(elapsed=1 / 15)
         path = viewer.last_recording
@@ -243,6 +246,7 @@ def test_recording_writes_a_playable_mp4_of_the_window(pyglet_window, tmp_path):
     meta = next(reader)
     assert tuple(meta["size"]) == (322, 180)  # even sides for H.264: the odd row left out
     frames = [np.frombuffer(f, dtype=np.uint8).reshape(180, 322, 3) for f in reader]
+    assert recorded == pytest.approx(1.0)
     assert len(frames) == 31  # the first frame, then 30 more over the second recorded
     assert meta["fps"] == pytest.approx(30.0)
     last = frames[-1].astype(np.int16)

@@ -31,9 +31,11 @@ from twig_ecs.clock import FixedStepClock
 from twig_ecs.errors import TwigError
 from twig_ecs.graphics import commands
 from twig_ecs.graphics.camera import CameraSpec, OrbitCamera, action_point
+from twig_ecs.graphics.eventlog import EventLog
 from twig_ecs.graphics.inspector_ui import History, imgui_available
 from twig_ecs.graphics.overlay import HELP_LINES, inspector_lines, text_panel
-from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, pick_node
+from twig_ecs.graphics.pace import PaceMeter
+from twig_ecs.graphics.picking import Pick, cursor_ray, ground_point, is_fixed, near_miss, pick_node
 from twig_ecs.graphics.recorder import Recorder, RecordingError
 from twig_ecs.graphics.renderer import Renderer, solid_instances
 from twig_ecs.perturb import MouseSpring
@@ -97,13 +99,16 @@ def _no_display_errors(window_module) -> tuple[type[BaseException], ...]:
 
 @dataclass
 class Press:
-    """A left mouse press: where (window pixels), and the body part or ground point under it."""
+    """A left mouse press: where (window pixels), the body part or ground point under it, and
+    the movable part it just missed (``near``: a drag then is a missed grab, not an orbit)."""
 
     x: float
     y: float
     pick: Pick | None
     ground: np.ndarray | None
+    near: Pick | None = None
     moved: bool = False
+    told: bool = False  # the status line said why this drag does nothing
 
 
 @dataclass
@@ -175,6 +180,11 @@ class Viewer:
         self._elapsed = 0.0  # wall seconds before the frame being drawn (the recorder's clock)
         self.command_target: commands.Target | None = None
         self.goal_log: list[str] = []  # goal events, newest last ("ann: hug done")
+        #: the last few goal results and pains, with their times, for the panel over the view
+        self.event_log = EventLog()
+        #: the simulation's pace against the wall clock (the status line says when it falls behind)
+        self.pace = PaceMeter()
+        self._recorded_at: float | None = None  # the scene time of the last frame recorded
         self._press: Press | None = None
         self._grab_plane: tuple[np.ndarray, np.ndarray] | None = None
         #: the ImGui inspector (made at the first F1 when imgui-bundle is installed), and
@@ -186,10 +196,14 @@ class Viewer:
         self._attach(self.scene)
 
     def _attach(self, scene) -> None:
-        """Give a (new) scene the mouse spring and report its goal events in the status line."""
+        """Give a (new) scene the mouse spring and report its goal results (status line and event
+        log) and pains (event log)."""
         self.spring = scene.add_system(MouseSpring(), before="integrate")
         scene.on("goal.done", self._goal_ended)
         scene.on("goal.failed", self._goal_ended)
+        scene.on("pain", self._hurt)
+        self.event_log.clear()
+        self.pace.reset()
 
     def _goal_ended(self, event) -> None:
         name = self.scene.name_of(event.character) or "?"
@@ -197,7 +211,18 @@ class Viewer:
         line = f"{name}: {event.behavior} {event.kind.split('.')[1]}{why}"
         self.goal_log.append(line)
         del self.goal_log[:-50]
+        self.event_log.add(self.scene.time, line)
         self.say(line, 5.0)
+
+    def _hurt(self, event) -> None:
+        """A pain event: a line in the event log (one per body and cause while the blows go on)."""
+        name = self.scene.name_of(event.body) or "?"
+        if event.source_body == event.body:  # the mouse spring's yank reports the body itself
+            cause = "yanked"
+        else:
+            cause = f"hit by {self.scene.name_of(event.source_body) or 'something'}"
+        self.event_log.add(self.scene.time, f"{name} hurt: {cause} ({event.link}), pain {event.level:.2f}",
+                           merge_key=("pain", event.body, event.source_body))  # fmt: skip
 
     # -- clock ------------------------------------------------------------------------
 
@@ -244,6 +269,10 @@ class Viewer:
             self.scene.step(steps)
             self._own_steps += steps
             self.stats.add_steps((time.perf_counter() - t0) * 1000.0, steps)
+        if self.paused or self.stepped_elsewhere:
+            self.pace.reset()
+        else:  # the uncapped wall time: a frame slower than MAX_FRAME_GAP is still behind
+            self.pace.add(elapsed, steps * self.scene.dt)
         self.alpha = self.clock.fraction
         return steps
 
@@ -265,6 +294,16 @@ class Viewer:
             centre = action_point(self.scene)
             if centre is not None:  # slower than following one character: the centre jumps about
                 self.camera.follow(centre, max(elapsed, 1e-3), half_life=ACTION_HALF_LIFE)
+
+    def frame_action(self) -> None:
+        """C: back to the automatic framing (the characters, followed), as the window started."""
+        if self.camera is None:
+            return
+        aspect = self.window_size[0] / max(1, self.window_size[1])
+        self.camera = CameraSpec(mode="action").make(self.scene, aspect)
+        self._yard_view = None
+        self.follow, self.follow_action = False, True
+        self.say("camera: automatic framing", 1.5)
 
     def toggle_yard(self) -> None:
         """Y: the whole scene in view; again: back to the view before."""
@@ -374,6 +413,7 @@ class Viewer:
             key.V: "record",
             key.BACKSPACE: "clear",
             key.Y: "yard",
+            key.C: "camera",
         }.get(symbol)
         digits = (key._1, key._2, key._3, key._4, key._5, key._6, key._7, key._8, key._9)
         if action is None and symbol in digits:
@@ -400,6 +440,8 @@ class Viewer:
             self.record_requested = True  # started or stopped when the frame is drawn (its size)
         elif action == "yard":
             self.toggle_yard()
+        elif action == "camera":
+            self.frame_action()
         elif action == "clear":
             self.command_target, self.selected, self.follow = None, None, False
             self.say("selection cleared", 1.5)
@@ -435,7 +477,9 @@ class Viewer:
         if self.camera is None or button != mouse.LEFT or modifiers & self._key.MOD_SHIFT:
             return
         eye, direction = self._ray(x, y)
-        self._press = Press(x, y, pick_node(self.scene, eye, direction), ground_point(eye, direction))
+        pick = pick_node(self.scene, eye, direction)
+        near = near_miss(self.scene, eye, direction) if pick is None else None
+        self._press = Press(x, y, pick, ground_point(eye, direction), near)
 
     def _start_grab(self, pick: Pick) -> None:
         """Hold the picked part on the mouse spring; it is dragged in the plane facing the camera."""
@@ -525,11 +569,20 @@ class Viewer:
         if press is not None and press.pick is not None and buttons & mouse.LEFT:
             if not press.moved:
                 return
+            if is_fixed(self.scene, press.pick):  # a bench: a command target, but no spring moves it
+                self._tell_once(press, f"{press.pick.body} is fixed in place: it cannot be pulled")
+                return
             if not self.spring.holding:
                 self._start_grab(press.pick)
             target = self._drag_point(x, y)
             if target is not None:
                 self.spring.move(target)
+            return
+        if press is not None and press.near is not None and buttons & mouse.LEFT:
+            # a grab that missed (at a few frames a second the body moved on): the view stays put
+            if press.moved:
+                self._tell_once(press, f"missed {press.near.body}: press on a body part to pull it "
+                                       "(drag away from the bodies to turn the view)")  # fmt: skip
             return
         pan = buttons & (mouse.RIGHT | mouse.MIDDLE) or (
             buttons & mouse.LEFT and modifiers & self._key.MOD_SHIFT
@@ -540,6 +593,11 @@ class Viewer:
             self.follow = self.follow_action = False
         elif buttons & mouse.LEFT:
             self.camera.orbit(-dx * ORBIT_DEG_PER_PIXEL, -dy * ORBIT_DEG_PER_PIXEL)
+
+    def _tell_once(self, press: Press, text: str) -> None:
+        if not press.told:
+            press.told = True
+            self.say(text, 3.0)
 
     def scroll(self, amount: float, x: float | None = None, y: float | None = None) -> None:
         """The wheel zooms, or scrolls the inspector under the cursor."""
@@ -573,7 +631,10 @@ class Viewer:
                  "PAUSED" if self.paused else "running"]  # fmt: skip
         if self.time_scale != 1.0:
             parts.append(f"time x{self.time_scale:g}")
-        if self.recorder is not None:
+        behind = self.pace.behind(self.time_scale)
+        if behind is not None:  # the per-frame step cap drops time: the scene runs slower than asked
+            parts.append(f"behind: x{behind:.2g} of real time")
+        if self.recorder is not None:  # seconds of video: simulated time at the chosen scale
             parts.append(f"REC {self.recorder.clock:4.1f} s")
         if self.spring.holding:  # the strength of the pull, as the spring line's colour shows it
             parts.append(f"pull {self.spring.body}.{self.spring.part} {self.spring.force:4.0f} N")
@@ -606,6 +667,12 @@ class Viewer:
                 lambda: text_panel(lines, scale, title="inspector", max_width=width - 2 * margin),
             )
             out.append(("inspector", image, margin, margin))
+        events = tuple(self.event_log.lines(self.scene.time))
+        if events:  # over the status line, bottom left
+            image = self._panel("events", (scale, events, width),
+                                lambda: text_panel(events, scale, max_width=width - 2 * margin))  # fmt: skip
+            top = height - status.size[1] - margin - image.size[1] - margin // 2
+            out.append(("events", image, margin, top))
         if self.notice is not None:
             out.append(("notice", self.notice, (width - self.notice.size[0]) // 2, margin))
         if self.command_target is not None and self.selected is not None:
@@ -644,8 +711,25 @@ class Viewer:
             self.record_requested = False
             self.toggle_recording(size)
         if self.recorder is not None:
-            self.recorder.add(renderer.read_pixels(), self._elapsed)
+            self.recorder.add(renderer.read_pixels(), self.video_seconds())
         self.frames += 1
+
+    def video_seconds(self) -> float:
+        """The seconds of video the frame just drawn stands for.
+
+        While running: the simulated time the scene moved on since the last recorded frame,
+        over the time scale. So the video plays at real speed (or in the slow or fast motion
+        chosen with [ and ]) even when the window cannot keep up and the scene runs slower
+        than the wall clock. While paused: the wall time (the still scene and the camera's
+        moves play as long as they were watched).
+        """
+        now = self.scene.time
+        before, self._recorded_at = self._recorded_at, now
+        if self.paused:
+            return self._elapsed
+        if before is None or now < before:  # the first frame, or the scene was reloaded
+            return 0.0
+        return (now - before) / max(self.time_scale, 1e-6)
 
     def markers(self) -> np.ndarray | None:
         """What the mouse is doing, drawn in the scene: the spring, and a pin on a command's target."""
@@ -695,6 +779,7 @@ class Viewer:
         except (RecordingError, OSError) as exc:
             self.say(f"cannot record: {exc}", 5.0)
             return
+        self._recorded_at = None
         self.say(f"recording {path.name} (V stops)", 2.0)
 
     def close(self) -> None:

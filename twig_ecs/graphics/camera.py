@@ -15,6 +15,10 @@ import numpy as np
 
 from twig_ecs.errors import TwigError
 
+#: The lowest the eye of a camera moved by the mouse or keys may go (m above the ground): a
+#: camera under the ground shows the scene's underside through a floor drawn from one side.
+MIN_EYE_HEIGHT = 0.2
+
 
 class CameraError(TwigError):
     """A camera specification (``--camera``) that cannot be understood."""
@@ -92,9 +96,19 @@ class OrbitCamera:
     # -- moving --------------------------------------------------------------------
 
     def orbit(self, d_yaw: float, d_pitch: float) -> None:
-        """Turn around the target by degrees; pitch stays within [-5, 89]."""
+        """Turn around the target by degrees; pitch stays within [-5, 89], the eye above the ground."""
         self.yaw = (self.yaw + d_yaw) % 360.0
         self.pitch = min(89.0, max(-5.0, self.pitch + d_pitch))
+        self.stay_above_ground()
+
+    def stay_above_ground(self) -> None:
+        """Raise the eye to :data:`MIN_EYE_HEIGHT` if it is lower: tilt the view down towards the
+        target, and lift the target when even a view from above would leave the eye too low."""
+        top = math.sin(math.radians(89.0)) * self.distance
+        self.target[1] = max(self.target[1], MIN_EYE_HEIGHT - top)
+        if self.eye[1] < MIN_EYE_HEIGHT:
+            rise = (MIN_EYE_HEIGHT - self.target[1]) / self.distance
+            self.pitch = min(89.0, math.degrees(math.asin(min(1.0, rise))) + 1e-6)
 
     def pan(self, dx: float, dz: float) -> None:
         """Move the target in the ground plane: ``dx`` to the right, ``dz`` away from the eye,
@@ -109,15 +123,18 @@ class OrbitCamera:
         """Drag the target with the view plane: ``dx``/``dy`` in units of the distance."""
         right, up, _ = self.basis()
         self.target = self.target + self.distance * (-dx * right - dy * up)
+        self.stay_above_ground()
 
     def zoom(self, factor: float) -> None:
         """Multiply the distance by ``factor`` (< 1 moves closer), within [0.5, 200] m."""
         self.distance = min(200.0, max(0.5, self.distance * factor))
+        self.stay_above_ground()
 
     def follow(self, point: np.ndarray, dt: float, half_life: float = 0.25) -> None:
         """Move the target smoothly towards ``point`` (exponential, ``half_life`` seconds)."""
         k = 1.0 - 0.5 ** (dt / half_life) if half_life > 0 else 1.0
         self.target = self.target + k * (np.asarray(point, dtype=np.float64) - self.target)
+        self.stay_above_ground()
 
     def fit(self, points: np.ndarray, aspect: float, margin: float = 1.1) -> None:
         """Aim at the middle of ``points`` (n, 3) and back off until all of them are in view."""

@@ -24,13 +24,15 @@ _FONT_FILES = (
 HELP_LINES = (
     "Drag a body     pull it (spring) Release            throw it",
     "Click a body    select / target  1-7                command the selected",
-    "Mouse drag      orbit            Right drag / WASD  pan",
+    "Drag elsewhere  orbit            Right drag / WASD  pan",
     "Wheel           zoom             Q / E              turn",
     "Space           pause / run      .                  one step",
     "Tab             next character   F                  follow selected",
     "R               reload scene     L                  hidden links",
     "F1              inspector        F12                screenshot (PNG)",
     "[ / ]           slower / faster  V                  record MP4 (again: stop)",
+    "Y               the whole scene in view (Y again: back)",
+    "C               back to the automatic camera (the characters, followed)",
     "Backspace       clear selection  Esc                quit",
     "H               this help",
 )

@@ -2,8 +2,10 @@
 
 A cursor position becomes a ray from the camera's eye (:func:`cursor_ray`); the ray
 meets a body part (:func:`pick_node`: the node whose sphere, or whose link's capsule,
-the ray passes through first) or the ground (:func:`ground_point`). Cursor positions
-are pyglet's: window pixels from the bottom-left corner.
+the ray passes through first) or the ground (:func:`ground_point`). Every body can be
+picked, fixed ones (a bench, a fence post) too: they are command targets (``sit(on)``),
+though the mouse spring cannot move them (:func:`is_fixed`). Cursor positions are
+pyglet's: window pixels from the bottom-left corner.
 """
 
 from __future__ import annotations
@@ -16,6 +18,10 @@ from twig_ecs.store import LINK_VISIBLE, NODE_LOCKED
 
 #: Extra radius (m) a node or link counts as having for the cursor: thin arms are hard to hit.
 PICK_SLACK = 0.04
+#: A press whose ray passes this close (m) to a movable part without hitting it was aimed at
+#: that part (a grab that missed: easy on the jerky picture of 4-6 fps), not at the ground:
+#: its drag must not turn the view. About half a body's width.
+NEAR_MISS = 0.4
 
 
 @dataclass(frozen=True)
@@ -69,11 +75,13 @@ def _segment_hits(eye, direction, a, b, radius) -> tuple[np.ndarray, np.ndarray,
     return t, s, gap
 
 
-def pick_node(scene, eye: np.ndarray, direction: np.ndarray, movable_only: bool = True) -> Pick | None:
+def pick_node(scene, eye: np.ndarray, direction: np.ndarray, movable_only: bool = False,
+              slack: float = PICK_SLACK) -> Pick | None:  # fmt: skip
     """The body part the ray meets first: a node, or the nearer end of a link it passes through.
 
-    Locked nodes (a fence post, a bench) are skipped with ``movable_only``: a mouse spring
-    could not move them.
+    Every node counts, locked ones (a fence post, a bench) included: what the cursor is on
+    is what a click chose. With ``movable_only`` locked nodes are skipped (the parts a mouse
+    spring could move). ``slack``: extra radius (m) every part counts as having.
     """
     state = scene.state
     n, lk = state.nodes, state.links
@@ -83,7 +91,7 @@ def pick_node(scene, eye: np.ndarray, direction: np.ndarray, movable_only: bool 
     pos = n.pos[:count]
     free = (n.flags[:count] & NODE_LOCKED) == 0 if movable_only else np.ones(count, bool)
     best: tuple[float, int, np.ndarray] | None = None
-    t, _, gap = _segment_hits(eye, direction, pos, pos, n.radius[:count] + PICK_SLACK)
+    t, _, gap = _segment_hits(eye, direction, pos, pos, n.radius[:count] + slack)
     hit = np.flatnonzero((gap <= 0.0) & free)
     if len(hit):
         k = hit[np.argmin(t[hit])]
@@ -91,7 +99,7 @@ def pick_node(scene, eye: np.ndarray, direction: np.ndarray, movable_only: bool 
     if lk.count:
         a, b = lk.a[: lk.count], lk.b[: lk.count]
         visible = (lk.flags[: lk.count] & LINK_VISIBLE) != 0  # not stiffeners or grab joints
-        t, s, gap = _segment_hits(eye, direction, pos[a], pos[b], lk.radius[: lk.count] + PICK_SLACK)
+        t, s, gap = _segment_hits(eye, direction, pos[a], pos[b], lk.radius[: lk.count] + slack)
         node = np.where(s < 0.5, a, b)
         ok = (gap <= 0.0) & visible & free[node]
         hit = np.flatnonzero(ok)
@@ -107,3 +115,13 @@ def pick_node(scene, eye: np.ndarray, direction: np.ndarray, movable_only: bool 
     handle = scene.entity(name)
     node_name = handle.node_names[row - handle.body.node_start]
     return Pick(name, node_name, row, point, distance)
+
+
+def is_fixed(scene, pick: Pick) -> bool:
+    """Is the picked node locked in place (a bench, a fence post: no spring can move it)?"""
+    return bool(scene.state.nodes.flags[pick.row] & NODE_LOCKED)
+
+
+def near_miss(scene, eye: np.ndarray, direction: np.ndarray) -> Pick | None:
+    """The movable part the ray passes within :data:`NEAR_MISS` of, when it hits none."""
+    return pick_node(scene, eye, direction, movable_only=True, slack=NEAR_MISS)

@@ -1,9 +1,13 @@
 """Recording the window: what it shows, as an H.264 MP4 at a steady frame rate.
 
 The window draws at whatever rate the machine allows; a video plays at a fixed one. So
-the recorder keeps a wall clock of its own (the seconds the window says passed between
-frames) and writes each drawn frame as many times as video frames fell due meanwhile (a
-slow window repeats frames, a fast one skips some): the MP4 plays in real time.
+the recorder keeps a clock of its own, the video's, advanced by the seconds each drawn
+frame stands for, and writes each frame as many times as video frames fell due meanwhile
+(a slow window repeats frames, a fast one skips some). The window advances that clock
+by the simulated time each frame moved the scene on (at the time scale chosen: see
+:meth:`~twig_ecs.graphics.app.Viewer.video_seconds`), so a window that cannot keep up
+with real time still records a video that plays at real speed: its frame count is 30
+per simulated second.
 
 The encoder is imageio-ffmpeg's (already a dependency of ``twig render``): its wheels
 carry their own ffmpeg binary, so no system ffmpeg is needed.
@@ -44,17 +48,18 @@ class Recorder:
             raise RecordingError(f"cannot record a {size[0]}x{size[1]} window")
         self.fps = fps
         self.frames = 0  # video frames written
-        self.clock = 0.0  # wall seconds recorded
+        self.clock = 0.0  # seconds of video recorded
         self._writer = imageio_ffmpeg.write_frames(str(self.path), self.size, fps=fps, codec="libx264",
                                                    quality=7, macro_block_size=2,
                                                    ffmpeg_log_level="error")  # fmt: skip
         self._writer.send(None)
 
-    def add(self, rgb: np.ndarray, elapsed: float) -> int:
-        """Add the frame drawn ``elapsed`` wall seconds after the last one; returns video frames written."""
+    def add(self, rgb: np.ndarray, seconds: float) -> int:
+        """Add a frame that stands for ``seconds`` of video after the last one; returns video
+        frames written (the first frame once, at time 0)."""
         if self._writer is None:
             raise RecordingError(f"the recording {self.path} is already closed")
-        self.clock += max(0.0, elapsed)
+        self.clock += max(0.0, seconds)
         due = max(1 if self.frames == 0 else 0, math.floor(self.clock * self.fps + 1e-6) + 1 - self.frames)
         due = min(due, MAX_REPEATS)
         width, height = self.size

@@ -5,11 +5,18 @@ A character's behaviours keep their parameters in components (``Attachment.per_m
 :class:`Tunable` is one such number on one character; changing its ``value`` changes the
 component the behaviour reads at its next step. State kept in the same components
 (anxiety, counters) is not offered.
+
+A slider's range is the field's declared bounds when it has them
+(``field(default=0.5, metadata={"range": (0.0, 1.0)})``), else one scaled to the value:
+from 0 to a round number at least three times the larger of the scene's value and the
+field's default (``per_second`` 0.006: 0 to 0.02, so a pixel is a small step of it, not
+0.007 as on a 0-1 range).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, is_dataclass
+import math
+from dataclasses import MISSING, dataclass, fields, is_dataclass
 from pathlib import Path
 
 import esper
@@ -64,11 +71,36 @@ def find_tunables(scene) -> list[Tunable]:
                 value = getattr(component, f.name)
                 if f.name in STATE_FIELDS or isinstance(value, bool) or not isinstance(value, float):
                     continue
-                # a range round the scene's value: from 0 to three times it (rates and chances are small)
-                high = max(1.0, 3.0 * abs(value)) if value >= 0 else 0.0
-                low = 0.0 if value >= 0 else 3.0 * value
+                low, high = slider_range(f, value)
                 out.append(Tunable(entity_name, behaviour, f.name, component, low, high, value))
     return out
+
+
+def slider_range(spec, value: float) -> tuple[float, float]:
+    """The slider's (low, high) for a component field ``spec`` now holding ``value``.
+
+    The field's declared ``metadata["range"]`` if it has one (widened to take in the value);
+    else from 0 to :func:`round_up` of three times the value's size (the larger of the
+    scene's value and the field's default, so a value set to 0 keeps a useful range), on
+    the value's side of 0.
+    """
+    declared = spec.metadata.get("range") if spec.metadata else None
+    if declared is not None:
+        low, high = (float(v) for v in declared)
+        return min(low, value), max(high, value)
+    default = spec.default if isinstance(spec.default, float) and spec.default is not MISSING else 0.0
+    size = max(abs(value), abs(default))
+    reach = round_up(3.0 * size) if size > 0 else 1.0
+    return (-reach, 0.0) if value < 0 else (0.0, reach)
+
+
+def round_up(x: float) -> float:
+    """The smallest of 1, 2, 2.5 and 5 times a power of ten that is at least ``x`` (> 0)."""
+    power = 10.0 ** math.floor(math.log10(x))
+    for step in (1.0, 2.0, 2.5, 5.0, 10.0):
+        if step * power >= x * (1 - 1e-12):
+            return step * power
+    return 10.0 * power
 
 
 def changed(tunables: list[Tunable]) -> dict[tuple[str, str, str], float]:
