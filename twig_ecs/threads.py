@@ -10,6 +10,11 @@ CPU-bound processes beside it (``benchmarks/busy_machine.py``): a 300-walker cro
 28-81 ms a step with spinning threads, 5 ms with sleeping ones and 3-17 ms on one thread;
 100 approachers 22 ms, 2.7 ms and 3.3 ms.
 
+The price is paid on a quiet machine: waking sleeping threads costs each parallel region,
+so there 100 approachers take 4.2 ms a step against 1.6 spinning or on one thread, and a
+300-walker crowd 3.9 against 2.7-2.8 (end of session 13). Threads should be used only where
+they pay and while a core is idle - the open half of issue 33.
+
 :func:`configure_threads` chooses the passive wait (``OMP_WAIT_POLICY=PASSIVE``) unless
 the user set a policy. It must run before the OpenMP library is loaded, which numba does
 at the first parallel kernel call: :func:`twig_ecs.kernelcache.configure_cache` calls it,
