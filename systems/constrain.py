@@ -27,6 +27,7 @@ from twig_ecs.store import (
     NODE_LOCKED,
     NODE_MOVING,
     columns,
+    gripped_nodes,
 )
 from twig_ecs.system import System
 
@@ -118,14 +119,14 @@ class Constraints(NamedTuple):
     limits: LimitColumns
     axles: AxleColumns
     plan: BodyPlan
-    gripped: np.ndarray  # (nodes,) bool: an end of a grab joint (:func:`gripped_nodes`)
+    gripped: np.ndarray  # (nodes,) bool: an end of a grab joint (:func:`~twig_ecs.store.gripped_nodes`)
 
 
 def constraints_of(state) -> tuple:
     """The store's constraint columns for :func:`solve_constraints` and the collide kernel, as
     plain tuples in the field order of :class:`NodeColumns`, :class:`LinkColumns`,
     :class:`LimitColumns`, :class:`AxleColumns` and :class:`BodyPlan` (see
-    :func:`~twig_ecs.store.columns`), then the :func:`gripped_nodes`;
+    :func:`~twig_ecs.store.columns`), then the :func:`~twig_ecs.store.gripped_nodes`;
     :func:`named_constraints` names them again. Made once for both systems of a step, and
     again only when rows come or go or a grab joint is made (arrays are replaced only then)."""
     n, links, limits = state.nodes, state.links, state.limits
@@ -146,20 +147,6 @@ def constraints_of(state) -> tuple:
 
 #: Per store: (its layout key, its :func:`constraints_of` tuple).
 _KNOWN: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def gripped_nodes(state) -> np.ndarray:
-    """Per node row: is it an end of a grab joint (a hand that holds, or the node it holds)?
-
-    The joint welds the two into one point; a joint limit whose middle node is held leaves
-    the bending to the hand (see :func:`project_limit_rows`).
-    """
-    nodes, links = state.nodes, state.links
-    gripped = np.zeros(nodes.count, dtype=np.bool_)
-    grabs = np.flatnonzero(links.flags[: links.count] & LINK_GRAB)
-    gripped[links.a[grabs]] = True
-    gripped[links.b[grabs]] = True
-    return gripped
 
 
 def body_plan(state, parallel: bool = True) -> tuple:

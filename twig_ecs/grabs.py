@@ -17,7 +17,7 @@ from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Grabbed, Released
 from twig_ecs.kernelmath import HANG
-from twig_ecs.store import LINK_GRAB, LINK_OFF
+from twig_ecs.store import LINK_GRAB, LINK_OFF, gripped_nodes
 
 if TYPE_CHECKING:
     from twig_ecs.handles import BodyHandle
@@ -105,8 +105,7 @@ def slip(scene: Scene, limit: float = GRIP_SLIP) -> list[int]:
         return []
     stretch = np.linalg.norm(pos[a[rows]] - pos[b[rows]], axis=1) - links.rest[rows]
     # the worst stretch (m) of a rigid link at each held or holding node
-    gripped = np.zeros(state.nodes.count, dtype=bool)
-    gripped[a[rows]] = gripped[b[rows]] = True
+    gripped = gripped_nodes(state)
     own = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & (LINK_GRAB | LINK_OFF)) == 0)
                          & (links.rest[:count] > 0))  # fmt: skip
     pull = np.zeros(state.nodes.count)

@@ -408,6 +408,21 @@ def _check_rows(values: np.ndarray, lowest: int, count: int, what: str) -> None:
         raise ValueError(f"{what} holds a row outside 0..{count - 1}")
 
 
+def gripped_nodes(state: PhysicsState) -> np.ndarray:
+    """Per node row: is it an end of a grab joint (a hand that holds, or the node it holds)?
+
+    The joint welds the two into one point: a joint limit whose middle node is held leaves
+    the bending to the hand (``systems/constrain.py``), and a grip pulled too hard gives way
+    (:func:`twig_ecs.grabs.slip`).
+    """
+    nodes, links = state.nodes, state.links
+    gripped = np.zeros(nodes.count, dtype=np.bool_)
+    grabs = np.flatnonzero(links.flags[: links.count] & LINK_GRAB)
+    gripped[links.a[grabs]] = True
+    gripped[links.b[grabs]] = True
+    return gripped
+
+
 def _remap(indices: np.ndarray, remap: np.ndarray) -> None:
     """Rewrite an index array in place through ``remap`` (negative entries stay)."""
     valid = indices >= 0
