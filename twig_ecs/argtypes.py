@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from twig_ecs.validate import MAX_SEED
+from twig_ecs.validate import seed
 
 
 def seconds_number(text: str) -> float:
@@ -32,6 +32,7 @@ def seed_number(text: str) -> int:
     except ValueError:
         message = f"expected a whole number (like 0 or 42), got '{text[:40]}'"
         raise argparse.ArgumentTypeError(message) from None
-    if not 0 <= value <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"a seed is a whole number from 0 to {MAX_SEED}, got {text[:40]}")
-    return value
+    try:
+        return seed(value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"{exc}, got {text[:40]}") from None

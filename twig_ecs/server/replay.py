@@ -48,7 +48,7 @@ from twig_ecs.server.core import Server
 from twig_ecs.server.methods import bind, find_method
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.trust import loading_data
-from twig_ecs.validate import MAX_SEED
+from twig_ecs.validate import MAX_SEED, seed  # noqa: F401 - MAX_SEED: twig_ecs.replay names it here
 from twig_ecs.yamldoc import MAX_BYTES as MAX_YAML_BYTES
 
 FORMAT_VERSION = 1
@@ -243,6 +243,14 @@ def read_replay(path: str | Path, max_frames: int = MAX_FRAMES
     return header, commands, end
 
 
+def _is_seed(value: Any) -> bool:
+    try:
+        seed(value)
+    except ValueError:
+        return False
+    return True
+
+
 def _is_frame(value: Any, max_frames: int = MAX_FRAMES) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= max_frames
 
@@ -251,7 +259,7 @@ def _check_header(header: dict[str, Any], path: str | Path) -> None:
     """The header's fields have the types a replay needs (ReplayError naming the first that does not)."""
     checks = {
         "scene": lambda v: isinstance(v, str),
-        "seed": lambda v: isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= MAX_SEED,
+        "seed": _is_seed,
         "content": lambda v: isinstance(v, list) and all(isinstance(c, str) for c in v),
         "autonomous": lambda v: isinstance(v, bool),
         "files": lambda v: v is None or _files_ok(v),
