@@ -51,33 +51,28 @@ def set_trusted(value: bool) -> None:
 
 
 @contextlib.contextmanager
-def trusting(value: bool = True) -> Iterator[None]:
+def _setting(flag: contextvars.ContextVar[bool], value: bool) -> Iterator[None]:
+    """Within the block, ``flag`` is ``value``; as before after it."""
+    token = flag.set(value)
+    try:
+        yield
+    finally:
+        flag.reset(token)
+
+
+def trusting(value: bool = True) -> contextlib.AbstractContextManager[None]:
     """Within the block, files are trusted (``value=True``) or not."""
-    token = _TRUSTED.set(bool(value))
-    try:
-        yield
-    finally:
-        _TRUSTED.reset(token)
+    return _setting(_TRUSTED, bool(value))
 
 
-@contextlib.contextmanager
-def loading_data() -> Iterator[None]:
+def loading_data() -> contextlib.AbstractContextManager[None]:
     """Within the block, scenes being read came inside a data file (a replay): no plug-in files."""
-    token = _FROM_DATA.set(True)
-    try:
-        yield
-    finally:
-        _FROM_DATA.reset(token)
+    return _setting(_FROM_DATA, True)
 
 
-@contextlib.contextmanager
-def checking_only() -> Iterator[None]:
+def checking_only() -> contextlib.AbstractContextManager[None]:
     """Within the block, scenes are checked, not run: plug-in references are read, never imported."""
-    token = _CHECKING.set(True)
-    try:
-        yield
-    finally:
-        _CHECKING.reset(token)
+    return _setting(_CHECKING, True)
 
 
 def is_checking_only() -> bool:
