@@ -114,16 +114,17 @@ class Schema:
                 continue
             for attr, value in list(vars(module).items()):
                 if isinstance(value, type) and value.__module__ == name:
-                    self._add_class(value)
+                    self.add_class(value)
                 elif _is_kernel(value) and getattr(value, "__module__", None) == name:
                     self.kernels[(name, attr)] = value
 
-    def _add_class(self, cls: type) -> None:
+    def add_class(self, cls: type) -> None:
+        """Admit ``cls`` (and the classes nested in it) as world state."""
         self.classes[_class_name(cls)] = cls
         for value in vars(cls).values():  # nested classes (Outer.Inner)
             if isinstance(value, type) and value.__module__ == cls.__module__ and value is not cls:
                 if _class_name(value) not in self.classes:
-                    self._add_class(value)
+                    self.add_class(value)
 
     def world_class(self, cls: type) -> bool:
         """May objects of ``cls`` be written and read back?"""
@@ -154,11 +155,9 @@ def _attributes(obj: Any) -> dict[str, Any]:
             raise DataError(f"{type(obj).__qualname__}.__getstate__ must return a dict of attributes")
         return state
     state = dict(vars(obj)) if hasattr(obj, "__dict__") else {}
-    for klass in type(obj).__mro__:
-        slots = vars(klass).get("__slots__", ())
-        for slot in (slots,) if isinstance(slots, str) else slots:
-            if slot not in ("__dict__", "__weakref__") and hasattr(obj, slot):
-                state[slot] = getattr(obj, slot)
+    for slot in _slot_names(type(obj)):
+        if slot not in ("__dict__", "__weakref__") and hasattr(obj, slot):
+            state[slot] = getattr(obj, slot)
     return state
 
 
@@ -256,7 +255,7 @@ class Encoder:
             if cls.__module__ not in self.plugins:
                 self.plugins.append(cls.__module__)
             self.schema.plugin_modules.add(cls.__module__)
-            self.schema._add_class(cls)  # noqa: SLF001 - the schema grows by the plug-ins met
+            self.schema.add_class(cls)  # the schema grows by the plug-ins met
             return name
         raise DataError(
             f"cannot write a {cls.__module__}.{cls.__qualname__}: it is not world state (keep "
@@ -536,11 +535,12 @@ def decode(structure: bytes, blob: bytes, schema: Schema) -> Any:
         raise DataError(f"inconsistent structure ({type(exc).__name__}: {str(exc)[:80]})") from None
 
 
-def _slot_names(cls: type) -> set[str]:
-    names: set[str] = set()
+def _slot_names(cls: type) -> dict[str, None]:
+    """The slot names of ``cls`` and its bases, in a fixed order (a dict, for ``in``)."""
+    names: dict[str, None] = {}
     for klass in cls.__mro__:
         slots = vars(klass).get("__slots__", ())
-        names.update((slots,) if isinstance(slots, str) else slots)
+        names.update(dict.fromkeys((slots,) if isinstance(slots, str) else slots))
     return names
 
 
