@@ -41,10 +41,10 @@ def measure(scene: Scene, steps: int) -> dict[str, float]:
     times: dict[str, list[float]] = {}
     systems = scene.schedule.systems()
     for _ in range(steps):
-        scene.activate()
+        ctx = scene.step_context()
         for system in systems:
             t0 = time.perf_counter()
-            system.process(scene.dt)
+            system.run(ctx)
             times.setdefault(system.name, []).append((time.perf_counter() - t0) * 1000.0)
         scene.frame += 1
     return {name: statistics.median(ms) for name, ms in times.items()}

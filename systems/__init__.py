@@ -1,40 +1,18 @@
-"""Systems: esper processors run in the scene's named schedule, one per file.
+"""Systems, in three feature packages that show the layers.
 
-The physics systems (integrate, constrain, collide, sense) each make one call per step
-into a numba kernel that loops over the whole :class:`~twig_ecs.store.PhysicsState`;
-the character controllers (gait, gaze, posture, arms, respiration) likewise make one
-call each over the table of characters. Which systems a scene runs is up to its plugins
-(:mod:`twig_ecs.plugins`); the order of their stages is :data:`twig_ecs.schedule.PIPELINE`.
+- :mod:`~twig_ecs.systems.physics`: integrate, constrain, collide, sense - one call each
+  per step into a numba kernel looping over the whole :class:`~twig_ecs.store.PhysicsState`;
+- :mod:`~twig_ecs.systems.control`: attention, behaviour selection, patrol and the
+  controllers (gait, gaze, posture, arms, respiration), one kernel call each over the
+  table of characters;
+- :mod:`~twig_ecs.systems.behaviours`: one module per built-in behaviour, found by
+  :func:`twig_ecs.plugins.builtin_behaviors` (no list to edit).
+
+A package imports only from its own layer and those below it (physics <- control <-
+behaviours). Which systems a scene runs is up to its plugins (:mod:`twig_ecs.plugins`);
+the order of their stages is :data:`twig_ecs.schedule.PIPELINE`.
 """
 
 from twig_ecs.kernelcache import configure_cache
 
 configure_cache()  # before any system module defines its kernels (numba binds the cache then)
-
-from twig_ecs.systems.arms import ArmsSystem  # noqa: E402
-from twig_ecs.systems.attention import AttentionSystem  # noqa: E402
-from twig_ecs.systems.collide import CollideSystem  # noqa: E402
-from twig_ecs.systems.constrain import ConstrainSystem  # noqa: E402
-from twig_ecs.systems.gait import GaitSystem  # noqa: E402
-from twig_ecs.systems.gaze import GazeSystem  # noqa: E402
-from twig_ecs.systems.integrate import IntegrateSystem  # noqa: E402
-from twig_ecs.systems.patrol import PatrolSystem  # noqa: E402
-from twig_ecs.systems.posture import PostureSystem  # noqa: E402
-from twig_ecs.systems.respiration import RespirationSystem  # noqa: E402
-from twig_ecs.systems.select_behavior import SelectBehaviorSystem  # noqa: E402
-from twig_ecs.systems.sense import SenseSystem  # noqa: E402
-
-__all__ = [
-    "ArmsSystem",
-    "AttentionSystem",
-    "CollideSystem",
-    "ConstrainSystem",
-    "GaitSystem",
-    "GazeSystem",
-    "IntegrateSystem",
-    "PatrolSystem",
-    "PostureSystem",
-    "RespirationSystem",
-    "SelectBehaviorSystem",
-    "SenseSystem",
-]

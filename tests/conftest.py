@@ -9,12 +9,12 @@ from __future__ import annotations
 import os
 import time
 
-import esper
 import numpy as np
 import pytest
 from yard_run import SEED, YARD_ID, YardRun, run_the_yard, scope_of
 
 from twig_ecs import Scene, Settings, kernels
+from twig_ecs.scene import open_scenes
 
 # The tests start many Python processes (the CLI, servers, fresh-process probes). Where the
 # environment says PYTHONDONTWRITEBYTECODE (some containers and CI images do), each of them
@@ -81,7 +81,7 @@ def scenes():
     yield made
     for scene in made:
         scene.close()
-    leftover = [w for w in esper.list_worlds() if w.startswith("twig-scene")]
+    leftover = open_scenes()
     assert not leftover, f"scenes left open: {leftover}"
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import copy
 
-import esper
 import numpy as np
 import pytest
 
@@ -39,7 +38,9 @@ def walks_both_ways(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
         goal.memory.clear()
         goal.memory.update(memory)
     for entity, goal in zip(entities, goals, strict=True):
-        approach.act(scene.character_handle(entity), esper.component_for_entity(entity, Mind), goal, scene.dt)
+        approach.act(
+            scene.character_handle(entity), scene.world.component_for_entity(entity, Mind), goal, scene.dt
+        )
     single = ch.walk[rows].copy()
     ch.walk[:] = walk
     for goal, memory in zip(goals, memories, strict=True):
@@ -160,7 +161,7 @@ def hugging_pairs() -> Scene:
 
 
 def test_hugs_of_every_size_go_round_hold_and_are_held_back_in_one_batch():
-    from twig_ecs.systems.hug import hands_on_back
+    from twig_ecs.systems.behaviours.hug import hands_on_back
 
     with hugging_pairs() as scene:
         goals = [scene.entity(f"h{k}").hug(f"p{k}", duration=1.5) for k in range(len(HUG_PAIRS))]
@@ -222,7 +223,7 @@ def test_a_snapshot_mid_hug_resumes_the_same_world():
 
 
 def test_a_partner_removed_mid_hug_fails_that_hug_and_the_others_hold_on():
-    from twig_ecs.systems.hug import hands_on_back
+    from twig_ecs.systems.behaviours.hug import hands_on_back
 
     with hugging_pairs() as scene:
         goals = [scene.entity(f"h{k}").hug(f"p{k}", duration=30.0) for k in range(len(HUG_PAIRS))]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 import pytest
 
@@ -13,11 +12,10 @@ from twig_ecs.components import Body, PainSensor, Withdrawing
 def test_a_crowd_has_one_entity_per_body_and_its_nodes_and_links_are_rows_of_that_body(scenes):
     scene = Scene.load("crowd", count=30)
     scenes.append(scene)
-    scene.activate()
     st = scene.state
-    assert len(esper._entities) == st.bodies.count == 30  # no entity per node or link
+    assert len(scene.world.entities()) == st.bodies.count == 30  # no entity per node or link
     owned = np.full(st.nodes.count, -1)
-    for _, body in esper.get_component(Body):
+    for _, body in scene.world.get_component(Body):
         rows = slice(body.node_start, body.node_start + len(body.node_names))
         owned[rows] = body.index
         links = slice(body.link_start, body.link_start + body.link_count)
@@ -33,8 +31,7 @@ def test_pain_sensor_parameters_live_in_the_store_and_read_back(empty_scene):
     assert isinstance(sensor, PainSensor)
     assert (sensor.threshold, sensor.half_life) == (3.0, 0.7)
     assert ball.pain_sensor is None, "the ball's template says pain: false"
-    scene.activate()
-    assert esper.get_component(PainSensor) == [], "parameters, not a component nobody reads"
+    assert scene.world.get_component(PainSensor) == [], "parameters, not a component nobody reads"
     scene.state.bodies.pain_threshold[kid.body.index] = 5.0  # the store is the truth
     assert kid.pain_sensor.threshold == 5.0
 
@@ -62,8 +59,7 @@ def test_a_pain_withdrawal_is_a_component_on_the_character_until_it_is_over(hurt
     scene = hurt
     kid, ball = scene.entity("kid"), scene.entity("ball")
     scene.step()
-    scene.activate()
-    retreat = esper.try_component(kid.entity, Withdrawing)
+    retreat = scene.world.try_component(kid.entity, Withdrawing)
     assert retreat is not None and retreat.source == ball.entity
     assert retreat.stagger_until < retreat.until and retreat.until > scene.time
     assert abs(float(np.linalg.norm(retreat.away)) - 1.0) < 1e-9
@@ -71,8 +67,7 @@ def test_a_pain_withdrawal_is_a_component_on_the_character_until_it_is_over(hurt
     last = retreat
     for _ in range(10 * 60):  # (a ball bouncing back for a second blow starts the retreat again)
         scene.step()
-        scene.activate()
-        retreat = esper.try_component(kid.entity, Withdrawing)
+        retreat = scene.world.try_component(kid.entity, Withdrawing)
         if retreat is None:
             break
         last = retreat
@@ -86,10 +81,8 @@ def test_a_snapshot_mid_withdrawal_restores_the_retreat_and_runs_on_identically(
     copy = Scene.restore(scene.snapshot())
     try:
         kid = scene.entity("kid").entity
-        copy.activate()
-        restored = esper.component_for_entity(kid, Withdrawing)
-        scene.activate()
-        original = esper.component_for_entity(kid, Withdrawing)
+        restored = copy.world.component_for_entity(kid, Withdrawing)
+        original = scene.world.component_for_entity(kid, Withdrawing)
         assert (restored.until, restored.source) == (original.until, original.source)
         scene.run(1.0)
         copy.run(1.0)
@@ -103,8 +96,7 @@ def test_removing_a_character_mid_withdrawal_takes_its_retreat_with_it(hurt):
     scene.step()
     scene.remove("kid")
     scene.step(5)
-    scene.activate()
-    assert esper.get_component(Withdrawing) == []
+    assert scene.world.get_component(Withdrawing) == []
 
 
 def test_hands_gliding_round_in_a_hug_are_state_that_ends_with_the_hug(pair):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import textwrap
 
-import esper
 import numpy as np
 import pytest
 
@@ -68,8 +67,7 @@ def test_wanderers_pick_new_targets_when_they_arrive(scenes):
     scene = Scene.load("crowd", count=3, spacing=6.0)
     scenes.append(scene)
     scene.run(12.0)
-    scene.activate()
-    assert all(w.targets >= 2 for _, w in esper.get_component(Wander))
+    assert all(w.targets >= 2 for _, w in scene.world.get_component(Wander))
 
 
 @pytest.mark.parametrize(

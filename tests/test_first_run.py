@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -64,13 +65,12 @@ def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_a
 
     folder = Path(folder)
     assert folder.parent == cache and folder.name.startswith("kernels-")
-    # kernels are filed by source folder name, not by a hash of where the sources are installed
-    assert {p.name for p in folder.iterdir() if p.is_dir()} <= {"systems", "twig_ecs"}
+    # kernels are filed by module and a hash of its sources, not by where they are installed
+    filed = {p.name for p in folder.iterdir() if p.is_dir()}
+    assert filed and all(re.fullmatch(r"[a-z_]+\.[a-z_]+-[0-9a-f]{12}", name) for name in filed), filed
+    assert any(name.startswith("physics.collide-") for name in filed)
 
-    other = tmp_path / "elsewhere"  # the same sources at another path: another venv, say
-    for part in ("twig_ecs", "systems", "components", "content"):
-        shutil.copytree(ROOT / part, other / part, ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copy(ROOT / "pyproject.toml", other / "pyproject.toml")
+    other = _copy_of_the_sources(tmp_path / "elsewhere")  # the same sources at another path
     probe = (
         "import twig_ecs; from numba.core import event; from twig_ecs import Scene\n"
         "compiled = []\n"
@@ -88,6 +88,63 @@ def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_a
     assert reuse.stdout.strip().endswith("[]")
 
 
+def _copy_of_the_sources(where: Path) -> Path:
+    for part in ("twig_ecs", "systems", "components", "content"):
+        # symlinks as they are: the checkout's twig_ecs/systems points at the top-level systems/
+        shutil.copytree(
+            ROOT / part, where / part, symlinks=True, ignore=shutil.ignore_patterns("__pycache__")
+        )
+    shutil.copy(ROOT / "pyproject.toml", where / "pyproject.toml")
+    return where
+
+
+def _kernels_compiled_by_a_schoolyard_run(sources: Path, cache: Path) -> list[str]:
+    probe = (
+        "import twig_ecs; from numba.core import event; from twig_ecs import Scene\n"
+        "compiled = []\n"
+        "class L(event.Listener):\n"
+        "    def on_start(self, ev): compiled.append(ev.data['dispatcher'].py_func.__name__)\n"
+        "    def on_end(self, ev): pass\n"
+        "event.register('numba:compile', L())\n"
+        "with Scene.load('schoolyard') as s: s.step(30)\n"
+        "print(twig_ecs.__file__, compiled)\n"
+    )
+    run = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(cache), "PYTHONPATH": str(sources)})
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.startswith(str(sources))  # it really ran that copy
+    return eval(run.stdout.split(" ", 1)[1])  # noqa: S307 - our own probe's printout
+
+
+@pytest.mark.slow  # copies the sources and the cache, compiles one kernel
+def test_editing_a_pure_python_behaviour_compiles_no_kernel_and_a_kernel_module_only_its_own(tmp_path):
+    # kernels are cached per kernel module, keyed by the sources they compile from (issue 32)
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there are no kernels to compile")
+    warm = kernels.cache_folder()
+    cache = tmp_path / "cache"
+    shutil.copytree(warm, cache / warm.name)  # the suite's compiled kernels, schoolyard's included
+
+    def filed() -> set[str]:
+        return {p.name for p in (cache / warm.name).iterdir() if p.is_dir()}
+
+    before = filed()
+    sources = _copy_of_the_sources(tmp_path / "src")
+    assert _kernels_compiled_by_a_schoolyard_run(sources, cache) == []
+
+    watch = sources / "systems" / "behaviours" / "watch.py"  # plain Python: no kernel in it
+    watch.write_text(watch.read_text() + "\n\ndef a_new_helper():\n    return 1\n")
+    assert _kernels_compiled_by_a_schoolyard_run(sources, cache) == []
+    assert filed() == before
+
+    # a kernel module's edit compiles its own kernels again (here, in the kernel build's
+    # worker processes: the run's own listener sees nothing) and no other module's
+    breathing = sources / "systems" / "control" / "respiration.py"
+    breathing.write_text(breathing.read_text() + "\n\nEDITED = True\n")
+    _kernels_compiled_by_a_schoolyard_run(sources, cache)
+    new = filed() - before
+    assert len(new) == 1 and new.pop().startswith("control.respiration-")
+
+
 def test_every_kernel_is_filed_by_our_cache_locator():
     # numba binds a kernel to a cache locator when it is decorated: a kernel module imported
     # before configure_cache (a new module that skips kernelmath and the systems package,
@@ -102,7 +159,7 @@ def test_every_kernel_is_filed_by_our_cache_locator():
     found = {f"{m.__name__}.{k}": type(v._cache._impl.locator).__name__
              for m in list(sys.modules.values()) if (getattr(m, "__name__", "") or "").startswith("twig_ecs")
              for k, v in vars(m).items() if isinstance(v, Dispatcher) and v._can_compile}  # fmt: skip
-    assert len(found) >= 20 and "twig_ecs.systems.collide.solve_collisions" in found
+    assert len(found) >= 20 and "twig_ecs.systems.physics.collide.solve_collisions" in found
     assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
 
 
@@ -213,7 +270,7 @@ def test_closing_the_window_while_compiling_stops_the_build():
 def test_scene_steps_in_slow_motion_while_the_kernels_compile_then_at_full_speed(monkeypatch):
     window_class = _window_class(load_pyglet_window(headless=True))
     from twig_ecs.graphics.app import Viewer
-    from twig_ecs.systems import collide
+    from twig_ecs.systems.physics import collide
 
     build = FakeBuild(polls=6)
     # as on a first run: the workers cache the kernels only as the build ends
@@ -249,7 +306,7 @@ def test_scene_steps_in_slow_motion_while_the_kernels_compile_then_at_full_speed
 def test_closing_the_window_during_slow_motion_restores_the_kernels(monkeypatch):
     window_class = _window_class(load_pyglet_window(headless=True))
     from twig_ecs.graphics.app import Viewer
-    from twig_ecs.systems import constrain
+    from twig_ecs.systems.physics import constrain
 
     monkeypatch.setattr(kernels, "_cached_on_disk", lambda kernel: False)  # none compiled yet
     build = FakeBuild(polls=100)
@@ -265,7 +322,7 @@ def test_closing_the_window_during_slow_motion_restores_the_kernels(monkeypatch)
 def test_a_run_begun_in_plain_python_ends_in_the_same_state_as_a_compiled_one():
     from numba.core import event
 
-    from twig_ecs.systems import collide
+    from twig_ecs.systems.physics import collide
 
     with Scene.load("schoolyard") as reference:  # compiled (and so cached) the usual way
         reference.step(45)

@@ -12,7 +12,7 @@ import pytest
 from twig_ecs import Scene
 from twig_ecs.cli import main
 from twig_ecs.interactions import InteractionRecorder
-from twig_ecs.systems.kick import launch_kick
+from twig_ecs.systems.behaviours.kick import launch_kick
 
 KID = "  - {name: kid, body: humanoid, height: 1.35, position: [0, 0, 0], character: true"
 
@@ -348,7 +348,7 @@ def test_a_doll_held_by_its_head_hangs_off_the_holding_arm_not_through_it(tmp_pa
 
 
 def test_a_grab_eases_out_to_its_standoff_rather_than_jumping_to_it(tmp_path, scenes):
-    from twig_ecs.systems.constrain import GRAB_CLOSING
+    from twig_ecs.systems.physics.constrain import GRAB_CLOSING
 
     scene = _scene(tmp_path, scenes, CARRIER)
     child = scene.character_handle(scene.entity("child").entity)
@@ -420,7 +420,7 @@ def test_a_kick_swings_in_front_of_the_body(tmp_path, scenes, monkeypatch, seed)
     """A 1.05 m child playing alone for a minute: every kick's swing is within 45 degrees of where its
     body faces (one swung across or behind the body spins it on its standing foot: 37-47 degree
     folds in the schoolyard)."""
-    import twig_ecs.systems.play as play
+    import twig_ecs.systems.behaviours.play as play
 
     scene = _scene(
         tmp_path,

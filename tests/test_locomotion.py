@@ -240,7 +240,7 @@ def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes)
     # Session 10, on its machine (other digits for the same code): 31 (0) and 50 (35) before the
     # hug's lean eased off, 47 (11) and 50 (26) after, 38 (10) and 30 (0) once the rider pushes the
     # merry-go-round off instead of sprinting, 37 (9) and 30 (0) with its run-out after a ride
-    # Session 12: 36 (5) and 38 (11) before the righting reflex (systems/posture.py), 28 (0) and
+    # Session 12: 36 (5) and 38 (11) before the righting reflex (systems/control/posture.py), 28 (0) and
     # 32 (0) with it
     for child in ("small_child", "big_child"):
         figures = torso[child]

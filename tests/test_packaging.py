@@ -41,10 +41,11 @@ def test_build_makes_an_sdist_with_docs_examples_benchmarks_tests_and_no_warning
         names = sdist.getnames()
     top = f"twig_ecs-{version}"
     for needed in ("LICENSE", "docs/scenes.md", "examples/dance/test_dance.py", "benchmarks/bench_server.py",
-                   "tests/conftest.py", "content/scenes/schoolyard.yaml", "systems/gait.py"):  # fmt: skip
+                   "tests/conftest.py", "content/scenes/schoolyard.yaml",
+                   "systems/control/gait.py"):  # fmt: skip
         assert f"{top}/{needed}" in names, needed
     with zipfile.ZipFile(tmp_path / f"twig_ecs-{version}-py3-none-any.whl") as wheel:
         files = wheel.namelist()
         metadata = wheel.read(f"twig_ecs-{version}.dist-info/METADATA").decode()
-    assert "twig_ecs/content/scenes/schoolyard.yaml" in files and "twig_ecs/systems/gait.py" in files
+    assert "twig_ecs/content/scenes/schoolyard.yaml" in files and "twig_ecs/systems/control/gait.py" in files
     assert f"Version: {version}" in metadata and "License-Expression: MIT" in metadata

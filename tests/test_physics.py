@@ -171,7 +171,7 @@ def test_a_knee_folded_far_past_its_limit_is_put_back_without_gaining_speed(zero
     # sideways) was moved straight onto the edge's plane, in towards the hip-foot line;
     # the links pushed it out again and each pass turned the fight into speed (a folded
     # knee reached 35 m/s within one step). A joint stop must never add energy.
-    from twig_ecs.systems.constrain import constraints_of, solve_constraints
+    from twig_ecs.systems.physics.constrain import constraints_of, solve_constraints
 
     scene = zero_g_scene
     body = scene.spawn("humanoid", name="folded", position=(0.0, 1.0, 0.0), facing=0)
@@ -195,7 +195,7 @@ def test_a_knee_folded_far_past_its_limit_is_put_back_without_gaining_speed(zero
 def test_a_knee_driven_into_its_limit_stops_without_bouncing(zero_g_scene):
     # a stop takes out the speed into the fault and gives none back: a folded knee swinging
     # outwards at 3 m/s, past the edge of its arc, leaves the body with no more energy
-    from twig_ecs.systems.constrain import constraints_of, solve_constraints
+    from twig_ecs.systems.physics.constrain import constraints_of, solve_constraints
 
     scene = zero_g_scene
     body = scene.spawn("humanoid", name="kneed", position=(0.0, 1.0, 0.0), facing=0)
@@ -214,7 +214,7 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
     """``near_pairs`` keeps, in the broad phase's order, the candidate pairs whose capsules are
     within the margin of touching (measured here by sampling both segments densely)."""
     from twig_ecs.bench.cases import hugging_pairs
-    from twig_ecs.systems.collide import CollideSystem, near_pairs
+    from twig_ecs.systems.physics.collide import CollideSystem, near_pairs
 
     with hugging_pairs(40) as scene:
         scene.run(4.0)  # arms round: many pairs touching, many more close, most boxes just overlapping
@@ -246,12 +246,12 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
     """A crowd big enough for the threaded passes (a grab joint among them: a body pair that must
     wait its turn) steps to the last bit as on one thread; scenes stepped from other threads at
     the same time run their passes on one thread (numba's pool takes one caller at a time) and
-    take turns a step at a time (esper's current world is one per process: Scene.STEP_LOCK).
+    take turns a step at a time (Scene.STEP_LOCK).
     Every scene is closed even when an assertion fails (the ``scenes`` fixture)."""
     import threading
 
     from twig_ecs.bench.cases import crowd
-    from twig_ecs.systems import constrain
+    from twig_ecs.systems.physics import constrain
 
     size = constrain.PARALLEL_BODIES + 20
 

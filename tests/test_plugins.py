@@ -11,12 +11,12 @@ from twig_ecs import Scene, System, TwigError
 from twig_ecs.behavior import Behavior
 from twig_ecs.clock import FixedStepClock
 from twig_ecs.plugins import (
-    BUILTIN_BEHAVIORS,
     BehavioursPlugin,
     ControlPlugin,
     PhysicsPlugin,
     Plugin,
     SchoolyardMotivesPlugin,
+    builtin_behaviors,
     default_plugins,
 )
 from twig_ecs.schedule import BEHAVIOURS, PIPELINE
@@ -66,7 +66,7 @@ def test_the_default_plugins_are_everything_built_in_in_pipeline_order(scenes):
     scene = Scene()
     scenes.append(scene)
     assert [type(p) for p in scene.plugins] == [type(p) for p in default_plugins()]
-    behaviours = [b.name for b in BUILTIN_BEHAVIORS]
+    behaviours = [b.name for b in builtin_behaviors()]
     expected = [n for n in PIPELINE[: PIPELINE.index(BEHAVIOURS)] if n != BEHAVIOURS]
     expected += behaviours + [n for n in PIPELINE[PIPELINE.index(BEHAVIOURS) + 1 :] if n != "render"]
     assert system_names(scene) == expected

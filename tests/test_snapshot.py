@@ -7,7 +7,6 @@ import json
 import pickle
 import struct
 
-import esper
 import numpy as np
 import pytest
 
@@ -264,7 +263,7 @@ def test_a_snapshot_of_a_scene_with_a_plugin_behaviour_restores_in_a_fresh_proce
 def test_a_kernel_held_by_a_system_is_saved_by_name_and_a_socket_is_refused(scenes):
     import socket
 
-    from twig_ecs.systems.integrate import integrate_nodes
+    from twig_ecs.systems.physics.integrate import integrate_nodes
 
     scene = Scene.load("empty")
     scenes.append(scene)
@@ -294,8 +293,7 @@ def _hostile(scene, change) -> bytes:
 def _body_outside(scene) -> None:
     from twig_ecs.components import Body
 
-    scene.activate()
-    next(iter(esper.get_component(Body)))[1].node_start = 10**6
+    next(iter(scene.world.get_component(Body)))[1].node_start = 10**6
 
 
 @pytest.mark.parametrize(
@@ -324,8 +322,8 @@ def test_a_snapshot_whose_rows_point_outside_the_store_is_refused(scenes, change
 
 def test_caches_of_rows_never_come_from_a_file(scenes, monkeypatch):
     """A system's cache written into a file - the broad phase's scratch, the attention rows - is not used."""
-    from twig_ecs.systems.attention import AttentionSystem
-    from twig_ecs.systems.collide import CollideSystem
+    from twig_ecs.systems.control.attention import AttentionSystem
+    from twig_ecs.systems.physics.collide import CollideSystem
 
     scene = Scene.load("schoolyard")
     scenes.append(scene)

@@ -12,7 +12,7 @@ import pytest
 
 from twig_ecs import Scene
 from twig_ecs.bench import cases
-from twig_ecs.systems.approach import (
+from twig_ecs.systems.behaviours.approach import (
     STEER_CELL,
     STEP_OVER,
     ground_grid,

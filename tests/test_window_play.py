@@ -83,7 +83,6 @@ def test_dragging_the_ball_moves_it_and_letting_go_throws_it(pyglet_window):
             assert spring.holding and spring.body == "ball"
         finally:
             restored.close()
-            viewer.scene.activate()
 
         window.dispatch_event("on_mouse_release", 0, 0, mouse.LEFT, 0)
         window.frame(elapsed=1 / 60)
@@ -257,8 +256,6 @@ def test_recording_writes_a_playable_mp4_of_the_window(pyglet_window, tmp_path):
 def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_window, tmp_path):
     import shutil
 
-    import esper
-
     from twig_ecs.components import Attachment
     from twig_ecs.graphics.tuning import builtin_scene
 
@@ -278,7 +275,7 @@ def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_w
         assert viewer.ui is not None and len(viewer.ui.windows) == 3
         scene = viewer.scene
         child = scene.entity("small_child")
-        attachment = esper.component_for_entity(child.entity, Attachment)
+        attachment = scene.world.component_for_entity(child.entity, Attachment)
         window.frame(elapsed=0.5)
         assert attachment.anxiety == 0.0  # near the parent (inside 2.5 m): no anxiety
 
@@ -322,8 +319,7 @@ def test_inspector_slider_changes_the_running_scene_and_writes_the_yaml(pyglet_w
     assert "safe_distance: 0  " in text and "# m: closer than this anxiety fades" in text  # comments kept
     reloaded = Scene.load(str(scene_file))
     try:
-        reloaded.activate()
-        attachment = esper.component_for_entity(reloaded.entity("small_child").entity, Attachment)
+        attachment = reloaded.world.component_for_entity(reloaded.entity("small_child").entity, Attachment)
         assert attachment.safe_distance == 0.0 and attachment.per_metre == pytest.approx(0.012)
     finally:
         reloaded.close()

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import stat
 
-import esper
 import pytest
 
 from twig_ecs import Scene
@@ -292,9 +291,8 @@ def test_the_inspector_writes_a_moved_slider_and_the_reloaded_scene_has_it(tmp_p
 
     reloaded = Scene.load(str(path))
     scenes.append(reloaded)
-    reloaded.activate()
     kid = reloaded.entity("kid").entity
-    assert esper.component_for_entity(kid, type(slider.component)).speed == 2.34
+    assert reloaded.world.component_for_entity(kid, type(slider.component)).speed == 2.34
     wander = next(t for t in tuning.find_tunables(reloaded) if t.key == ("kid", "wander", "speed"))
     assert wander.value == 1.0
 

@@ -6,118 +6,36 @@ that have its component and proposes an *activation* (a utility) for each; the
 :meth:`Behavior.act`, which writes the character's *motor vector* - walk vector, arm
 modes and targets, gaze, posture - into the controllers' targets. Only winners act.
 
-Commands from Python or RPC become :class:`Goal` s: ``character.approach("ball")``
+Commands from Python or RPC become :class:`~twig_ecs.mind.Goal` s: ``character.approach("ball")``
 queues a goal, the matching behaviour gives it a high activation while it runs, and its
 end is reported as a ``goal.done`` or ``goal.failed`` event (and to a callback).
 """
 
 from __future__ import annotations
 
-import itertools
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
-
-import esper
 
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
-from twig_ecs.events import Event
 from twig_ecs.goals import GoalSchema
+from twig_ecs.mind import (  # noqa: F401 - a mind's parts, here too for behaviours and plug-ins
+    GOAL_ACTIVATION,
+    GOAL_SCHEMAS,
+    BehaviorChanged,
+    Goal,
+    GoalDone,
+    GoalFailed,
+    Mind,
+    _goal_schema_listeners,
+    on_goal_schema,
+)
 from twig_ecs.schedule import BEHAVIOURS
 from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
     from twig_ecs.character import CharacterHandle
-
-#: Activation of a commanded goal: above idle play, below reflexes like pain.
-GOAL_ACTIVATION = 0.8
-_goal_ids = itertools.count(1)
-
-
-@dataclass(slots=True, frozen=True)
-class GoalDone(Event):
-    """A goal finished as asked."""
-
-    kind: ClassVar[str] = "goal.done"
-    character: int
-    goal: int
-    behavior: str
-
-
-@dataclass(slots=True, frozen=True)
-class GoalFailed(Event):
-    """A goal could not be finished (``reason`` says why)."""
-
-    kind: ClassVar[str] = "goal.failed"
-    character: int
-    goal: int
-    behavior: str
-    reason: str
-
-
-@dataclass(slots=True, frozen=True)
-class BehaviorChanged(Event):
-    """A character's winning behaviour changed."""
-
-    kind: ClassVar[str] = "behavior.changed"
-    character: int
-    old: str
-    new: str
-
-
-@dataclass
-class Goal:
-    """A command to one character: run behaviour ``behavior`` with ``params`` until done."""
-
-    behavior: str
-    params: dict[str, Any]
-    id: int = field(default_factory=lambda: next(_goal_ids))
-    status: str = "pending"  # pending, active, done, failed
-    reason: str = ""
-    started: float = -1.0  # simulated time it became active
-    on_end: Callable[[Goal], None] | None = None
-    memory: dict[str, Any] = field(default_factory=dict)  # the behaviour's working state
-
-    @property
-    def finished(self) -> bool:
-        """Done or failed."""
-        return self.status in ("done", "failed")
-
-
-@dataclass(slots=True)
-class Mind:
-    """A character's behaviour state: its goals, activations and the current winner."""
-
-    goals: list[Goal] = field(default_factory=list)  # queued goals, the first is current
-    activations: dict[str, float] = field(default_factory=dict)  # this step's proposals
-    last: dict[str, float] = field(default_factory=dict)  # the proposals of the last selection
-    winner: str = "idle"
-    since: float = 0.0  # simulated time the winner won
-    switches: int = 0
-    autonomous: bool = True  # False: only goals (and reflexes) move it - scripted by a drama manager
-
-    @property
-    def goal(self) -> Goal | None:
-        """The current goal, if any."""
-        return self.goals[0] if self.goals else None
-
-
-#: The schema of every goal behaviour class defined so far, by goal name.
-GOAL_SCHEMAS: dict[str, GoalSchema] = {}
-_goal_schema_listeners: list[Callable[[GoalSchema], None]] = []
-
-
-def on_goal_schema(listener: Callable[[GoalSchema], None]) -> None:
-    """Call ``listener(schema)`` for every goal schema, those defined so far and those to come.
-
-    How a higher layer (the character handle's goal methods) follows the goal behaviours
-    without this module importing it.
-    """
-    _goal_schema_listeners.append(listener)
-    for schema in list(GOAL_SCHEMAS.values()):
-        listener(schema)
+    from twig_ecs.step import StepContext
 
 
 class Behavior(System):
@@ -177,10 +95,12 @@ class Behavior(System):
         if self.goal_driven:
             return self.scene.goal_holders_of(self.name)
         if self.component is not None:
-            return [(e, mind) for e, (_, mind, _) in esper.get_components(Character, Mind, self.component)]
-        return [(e, mind) for e, (_, mind) in esper.get_components(Character, Mind)]
+            return [
+                (e, mind) for e, (_, mind, _) in self.world.get_components(Character, Mind, self.component)
+            ]
+        return [(e, mind) for e, (_, mind) in self.world.get_components(Character, Mind)]
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Propose this behaviour's activation for every character."""
         scene = self.scene
         name = self.name
@@ -222,7 +142,7 @@ class Behavior(System):
         where it has none of this behaviour's). The default calls :meth:`act` for each.
         """
         for entity in entities:
-            mind = esper.component_for_entity(entity, Mind)
+            mind = self.world.component_for_entity(entity, Mind)
             goal = mind.goal if mind.goal is not None and mind.goal.behavior == self.name else None
             self.act(self.scene.character_handle(entity), mind, goal, dt)
 
@@ -233,7 +153,7 @@ class Behavior(System):
 
     def settings(self, character: CharacterHandle) -> Any:
         """This behaviour's component on a character (its per-character parameters)."""
-        return esper.component_for_entity(character.entity, self.component)
+        return self.world.component_for_entity(character.entity, self.component)
 
     def finish(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """End ``goal`` (done or failed) and report it."""

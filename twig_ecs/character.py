@@ -14,10 +14,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import esper
 import numpy as np
 
-from twig_ecs.behavior import Goal, Mind, on_goal_schema
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.handles import BodyHandle
@@ -36,12 +34,13 @@ from twig_ecs.kernelmath import (
     STAND,
     WAVE,
 )
+from twig_ecs.mind import Goal, Mind, on_goal_schema
 from twig_ecs.store import LINK_BRACE, LINK_OFF, NODE_LOCK_ON_CONTACT, NODE_LOCKED, ROLES
 from twig_ecs.validate import LIMIT, suggest
 
 if TYPE_CHECKING:
     from twig_ecs.goals import GoalSchema
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView
 
 HANDS = {"left": (0,), "right": (1,), "both": (0, 1)}
 _ROLE_INDEX = {role: k for k, role in enumerate(ROLES)}
@@ -68,9 +67,9 @@ class CharacterSpec:
     where: dict[str, Any] = field(default_factory=dict)  # YAML mapping of each command, for errors
 
 
-def make_character(scene: Scene, entity: int, facing: float, spec: CharacterSpec) -> int:
+def make_character(scene: SceneView, entity: int, facing: float, spec: CharacterSpec) -> int:
     """Give the body ``entity`` a character row and component; returns the row."""
-    body = esper.component_for_entity(entity, Body)
+    body = scene.world.component_for_entity(entity, Body)
     missing = [r for r in ROLES if r not in body.node_names]
     if missing:
         raise SceneError(f"a character needs a body with the humanoid's nodes; '{body.template}' lacks "
@@ -101,12 +100,12 @@ def make_character(scene: Scene, entity: int, facing: float, spec: CharacterSpec
                 ch.breath_links[row, k] = j
                 ch.breath_rest[row, k] = links.rest[j]
     _set_braces(scene, body, on=False)
-    esper.add_component(entity, Character(row, max_speed=spec.max_speed))
-    esper.add_component(entity, Mind())
+    scene.world.add_component(entity, Character(row, max_speed=spec.max_speed))
+    scene.world.add_component(entity, Mind())
     return row
 
 
-def _set_braces(scene: Scene, body: Body, on: bool) -> None:
+def _set_braces(scene: SceneView, body: Body, on: bool) -> None:
     """Switch a body's brace links on (passive) or off (under control)."""
     flags = scene.state.links.flags[body.link_start : body.link_start + body.link_count]
     braces = (flags & LINK_BRACE) != 0
@@ -145,12 +144,12 @@ class CharacterHandle(BodyHandle):
     @property
     def character(self) -> Character:
         """The Character component."""
-        self.scene.activate()
+        self.scene.check_open()
         # looked up once per handle: a behaviour's act reads it ten times (rows, holding,
         # max speed); the check that the entity still lives keeps a removed one an error
         found = self.__dict__.get("_character")
-        if found is None or not esper.entity_exists(self.entity):
-            found = self.__dict__["_character"] = esper.component_for_entity(self.entity, Character)
+        if found is None or not self.world.entity_exists(self.entity):
+            found = self.__dict__["_character"] = self.world.component_for_entity(self.entity, Character)
         return found
 
     @property
@@ -239,7 +238,7 @@ class CharacterHandle(BodyHandle):
         """What each hand holds: {"right": "ball"}."""
         out = {}
         for hand, grab in self.character.holding.items():
-            joint = esper.try_component(grab, GrabJoint)
+            joint = self.world.try_component(grab, GrabJoint)
             if joint is not None:
                 out[hand] = self.scene.name_of(joint.held) or str(joint.held)
         return out
@@ -514,8 +513,8 @@ class CharacterHandle(BodyHandle):
     @property
     def mind(self):
         """The behaviour state: goals, current winner, switch count."""
-        self.scene.activate()
-        return esper.component_for_entity(self.entity, Mind)
+        self.scene.check_open()
+        return self.world.component_for_entity(self.entity, Mind)
 
     @property
     def behaviour(self) -> str:

@@ -1,6 +1,6 @@
 """Goal schemas: a goal behaviour's name, parameters and docs, written once.
 
-A goal behaviour (``systems/hug.py``, a plug-in's) declares a :class:`GoalSchema`. From
+A goal behaviour (``systems/behaviours/hug.py``, a plug-in's) declares a :class:`GoalSchema`. From
 it come everything a command to that goal needs, so none of it is written twice:
 
 - the ``CharacterHandle`` method (``ann.drag("doll", speed=0.6)``), with a real

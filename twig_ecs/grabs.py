@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Body, Character, GrabJoint
@@ -21,7 +20,8 @@ from twig_ecs.store import LINK_GRAB, LINK_OFF, gripped_nodes
 
 if TYPE_CHECKING:
     from twig_ecs.handles import BodyHandle
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView
+    from twig_ecs.world import World
 
 #: Steps (1/3 s) that an arm and what it let go of keep ignoring each other in collisions.
 RELEASE_GRACE_STEPS = 20
@@ -32,7 +32,7 @@ RELEASE_GRACE_STEPS = 20
 GRIP_SLIP = 0.10
 
 
-def join(scene: Scene, h: BodyHandle, node: str, t: BodyHandle, target_node: str, standoff: float) -> int:
+def join(scene: SceneView, h: BodyHandle, node: str, t: BodyHandle, target_node: str, standoff: float) -> int:
     """Add a closing link from ``h``'s ``node`` to ``t``'s ``target_node``; returns the joint's entity.
 
     See :meth:`Scene.grab <twig_ecs.scene.Scene.grab>`.
@@ -50,7 +50,7 @@ def join(scene: Scene, h: BodyHandle, node: str, t: BodyHandle, target_node: str
     links.min_rest[row] = max(0.0, float(standoff))
     links.flags[row] = LINK_GRAB
     links.body[row] = h.body.index
-    entity = esper.create_entity(GrabJoint(row, h.entity, t.entity))
+    entity = scene.world.create_entity(GrabJoint(row, h.entity, t.entity))
     links.entity[row] = entity
     state.version += 1
     state.colliders_dirty = True  # the hand and what it holds stop colliding
@@ -58,9 +58,9 @@ def join(scene: Scene, h: BodyHandle, node: str, t: BodyHandle, target_node: str
     return entity
 
 
-def release(scene: Scene, grab: int) -> None:
+def release(scene: SceneView, grab: int) -> None:
     """Remove the grab joint ``grab`` (its entity): its link row, its entity and who held it."""
-    joint = esper.try_component(grab, GrabJoint)
+    joint = scene.world.try_component(grab, GrabJoint)
     if joint is None:
         raise TwigError(f"no grab joint {grab}")
     state = scene.state
@@ -71,18 +71,18 @@ def release(scene: Scene, grab: int) -> None:
     keep[joint.index] = False
     remap = links.keep(keep)
     scene.emit(Released(grab, joint.holder, joint.held))
-    esper.delete_entity(grab, immediate=True)
-    for _, character in esper.get_component(Character):
+    scene.world.delete_entity(grab, immediate=True)
+    for _, character in scene.world.get_component(Character):
         character.holding = {h: g for h, g in character.holding.items() if g != grab}
-    for _, other in esper.get_component(GrabJoint):
+    for _, other in scene.world.get_component(GrabJoint):
         other.index = int(remap[other.index])
-    for _, body in esper.get_component(Body):
+    for _, body in scene.world.get_component(Body):
         if body.link_count:
             body.link_start = int(remap[body.link_start])
     state.rebuild_colliders()
 
 
-def slip(scene: Scene, limit: float = GRIP_SLIP) -> list[int]:
+def slip(scene: SceneView, limit: float = GRIP_SLIP) -> list[int]:
     """Let go of every grip pulled more than ``limit`` m beyond its length - its grab
     joint's, or that of a link at either of its ends; returns the joints' entities, released
     as :func:`release` (a ``release`` event each).
@@ -115,7 +115,7 @@ def slip(scene: Scene, limit: float = GRIP_SLIP) -> list[int]:
     tension = np.maximum(stretch, np.maximum(pull[a[rows]], pull[b[rows]]))
     slipped = [int(links.entity[row]) for row in rows[tension > limit]]
     for grab in slipped:
-        for _, character in esper.get_component(Character):
+        for _, character in scene.world.get_component(Character):
             for hand, held in character.holding.items():
                 if held == grab:  # the arm that held it relaxes, as when its owner lets go
                     state.characters.arm_mode[character.index, int(hand == "right")] = HANG
@@ -123,29 +123,29 @@ def slip(scene: Scene, limit: float = GRIP_SLIP) -> list[int]:
     return slipped
 
 
-def remove_body(scene: Scene, entity: int) -> None:
+def remove_body(scene: SceneView, entity: int) -> None:
     """Remove a body's rows from the store, its entity and its grab joints' entities from the world."""
-    body = esper.component_for_entity(entity, Body)
+    body = scene.world.component_for_entity(entity, Body)
     doomed = {entity}
     remap = scene.state.remove_body(body.index)
-    for e, grab in list(esper.get_component(GrabJoint)):
+    for e, grab in list(scene.world.get_component(GrabJoint)):
         if entity in (grab.holder, grab.held):
             doomed.add(e)
     for e in doomed:
-        esper.delete_entity(e, immediate=True)
-    follow_remap(remap)
+        scene.world.delete_entity(e, immediate=True)
+    follow_remap(scene.world, remap)
 
 
-def follow_remap(remap: dict[str, np.ndarray]) -> None:
+def follow_remap(world: World, remap: dict[str, np.ndarray]) -> None:
     """Follow a store compaction: rewrite every row index held by components."""
     nodes, links, bodies = remap["nodes"], remap["links"], remap["bodies"]
-    for _, grab in esper.get_component(GrabJoint):
+    for _, grab in world.get_component(GrabJoint):
         grab.index = int(links[grab.index])
-    for _, body in esper.get_component(Body):
+    for _, body in world.get_component(Body):
         body.index = int(bodies[body.index])
         body.node_start = int(nodes[body.node_start])
         body.link_start = int(links[body.link_start]) if body.link_count else 0
-    live_grabs = {e for e, _ in esper.get_component(GrabJoint)}
-    for _, character in esper.get_component(Character):
+    live_grabs = {e for e, _ in world.get_component(GrabJoint)}
+    for _, character in world.get_component(Character):
         character.index = int(remap["characters"][character.index])
         character.holding = {h: g for h, g in character.holding.items() if g in live_grabs}

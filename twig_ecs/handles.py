@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Body, PainSensor
@@ -13,7 +12,8 @@ from twig_ecs.store import NODE_LOCK_ON_CONTACT, NODE_LOCKED
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView
+    from twig_ecs.world import World
 
 
 class PassiveBodyError(TwigError, AttributeError):
@@ -26,7 +26,7 @@ class BodyHandle:
     Positions are metres, velocities m/s. Reads return copies, never views into the store.
     """
 
-    def __init__(self, scene: Scene, entity: int, name: str) -> None:
+    def __init__(self, scene: SceneView, entity: int, name: str) -> None:
         self.scene = scene
         self.entity = entity
         self.name = name
@@ -48,14 +48,19 @@ class BodyHandle:
         )
 
     @property
+    def world(self) -> World:
+        """The scene's entities and components."""
+        return self.scene.world
+
+    @property
     def body(self) -> Body:
         """The Body component (template name, rows)."""
-        self.scene.activate()
+        self.scene.check_open()
         # looked up once per handle (behaviours read nodes by name many times a step); the
         # component is updated in place when rows move, and a removed entity stays an error
         found = self.__dict__.get("_body")
-        if found is None or not esper.entity_exists(self.entity):
-            found = self.__dict__["_body"] = esper.component_for_entity(self.entity, Body)
+        if found is None or not self.world.entity_exists(self.entity):
+            found = self.__dict__["_body"] = self.world.component_for_entity(self.entity, Body)
         return found
 
     @property

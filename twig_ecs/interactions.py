@@ -32,14 +32,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
-from twig_ecs.systems.collide import capsule_gaps
-from twig_ecs.systems.hug import hands_on_back
-from twig_ecs.systems.play import yard_of
+from twig_ecs.systems.behaviours.hug import hands_on_back
+from twig_ecs.systems.behaviours.play import yard_of
+from twig_ecs.systems.physics.collide import capsule_gaps
 
 SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
 SPIN_UP = 0.005  # rad/s gained in one step by a turning body: a push (its bearings only slow it)
@@ -152,8 +151,7 @@ class InteractionRecorder:
 
     def _characters(self) -> list:
         scene = self.scene
-        scene.activate()
-        return [scene.character_handle(e) for e, _ in esper.get_component(Character)]
+        return [scene.character_handle(e) for e, _ in self.scene.world.get_component(Character)]
 
     def step(self) -> None:
         """Measure the state after one step."""

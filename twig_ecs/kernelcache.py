@@ -35,26 +35,118 @@ def jit_disabled() -> bool:
     return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
 
 
+def _source_roots() -> dict[str, Path]:
+    """Where the package's parts live: ``systems`` and ``components`` are folders of their
+    own in a checkout (beside ``twig_ecs/``) and inside the package once installed."""
+    roots = {}
+    for part in ("systems", "components"):
+        inside = _PACKAGE / part
+        roots[part] = inside if inside.is_dir() else _PACKAGE.parent / part
+    return roots
+
+
 def kernel_dirs() -> list[Path]:
-    """Folders whose ``.py`` files hold kernels: the package and its systems."""
-    systems = _PACKAGE / "systems"  # an installed package holds its systems
-    if not systems.is_dir():  # a checkout: systems/ beside twig_ecs/
-        systems = _PACKAGE.parent / "systems"
-    return [_PACKAGE, systems]
+    """Folders whose ``.py`` files may hold kernels: the package and every systems folder."""
+    systems = _source_roots()["systems"].resolve()
+    return [_PACKAGE, systems, *sorted(p.parent for p in systems.glob("*/__init__.py"))]
 
 
-def kernel_version() -> str:
-    """A short hash of every kernel source and the numba, numpy and Python versions."""
+def kernel_modules() -> list[str]:
+    """The names of the systems modules, every sub-package's included (they may hold kernels)."""
+    systems = _source_roots()["systems"].resolve()
+    names = []
+    for path in sorted(systems.rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        parts = path.relative_to(systems).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        names.append(".".join(("twig_ecs.systems", *parts)))
+    return names
+
+
+def module_file(name: str) -> Path | None:
+    """The source file of one of our modules by its dotted name (None if not ours)."""
+    parts = name.split(".")
+    if parts[0] != "twig_ecs":
+        return None
+    roots = _source_roots()
+    if len(parts) > 1 and parts[1] in roots:
+        path = roots[parts[1]].joinpath(*parts[2:])
+    else:
+        path = _PACKAGE.joinpath(*parts[1:])
+    for candidate in (path.with_suffix(".py"), path / "__init__.py"):
+        if candidate.is_file():
+            return candidate.resolve()
+    return None
+
+
+def _imported_by(path: Path) -> set[Path]:
+    """Our source files that ``path`` imports (anywhere in it, but not for type checking only)."""
+    import ast
+
+    found: set[Path] = set()
+
+    def visit(node: ast.AST) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                continue  # never runs: it cannot change what a kernel compiles to
+            if isinstance(child, ast.Import):
+                names = [alias.name for alias in child.names]
+            elif isinstance(child, ast.ImportFrom) and child.level == 0 and child.module:
+                # ``from pkg import mod`` imports the submodule when there is one
+                names = [child.module] + [f"{child.module}.{alias.name}" for alias in child.names]
+            else:
+                visit(child)
+                continue
+            found.update(f for f in map(module_file, names) if f is not None)
+
+    visit(ast.parse(path.read_bytes()))
+    return found
+
+
+#: Our modules that kernel modules import but that cannot change compiled code: where the
+#: cache is and how threads wait. Left out of :func:`source_closure`, so editing them
+#: recompiles nothing.
+NOT_COMPILED_FROM = ("kernelcache.py", "threads.py")
+
+
+def source_closure(path: Path) -> list[Path]:
+    """``path`` and every one of our modules it imports, directly or through others, sorted.
+
+    A kernel compiles from its own module's source and from what that module brings in
+    (kernels it calls, constants it bakes in), so this is all a compiled kernel can depend
+    on among our files; a module outside it cannot change the compiled code.
+    """
+    seen: set[Path] = set()
+    todo = [path.resolve()]
+    while todo:
+        here = todo.pop()
+        if here in seen:
+            continue
+        seen.add(here)
+        todo.extend(f for f in _imported_by(here) - seen
+                    if not (f.parent == _PACKAGE and f.name in NOT_COMPILED_FROM))  # fmt: skip
+    return sorted(seen)
+
+
+def environment_version() -> str:
+    """A short hash of the numba, numpy and Python versions: compiled code fits only these."""
     import numba
     import numpy
 
+    text = f"{numba.__version__} {numpy.__version__} {sys.version}"
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def module_version(path: Path) -> str:
+    """A short hash of the sources a kernel module's kernels compile from (:func:`source_closure`)."""
     digest = hashlib.sha256()
-    digest.update(f"{numba.__version__} {numpy.__version__} {sys.version}".encode())
-    systems = kernel_dirs()[1]
-    for path in sorted(systems.glob("*.py")) + [_PACKAGE / "kernelmath.py", _PACKAGE / "store.py"]:
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+    # by folder and file name, not by full path: the same sources elsewhere hash the same
+    for source in sorted(source_closure(path), key=lambda p: (p.parent.name, p.name)):
+        digest.update(f"{source.parent.name}/{source.name}".encode())
+        digest.update(source.read_bytes())
+    return digest.hexdigest()[:12]
 
 
 def cache_base() -> Path:
@@ -91,7 +183,7 @@ def configure_cache() -> Path | None:
     configure_threads()  # before numba loads its OpenMP pool: idle threads sleep (twig_ecs.threads)
     if os.environ.get("NUMBA_CACHE_DIR") or jit_disabled():
         return None
-    version = kernel_version()
+    version = environment_version()
     base = cache_base()
     folder = base / f"kernels-{version}"
     if _writable(folder):
@@ -188,17 +280,20 @@ def _locator_base():
 
 
 class KernelCacheLocator(*_locator_base()):
-    """Files kernels from our sources under the version folder, by source folder name.
+    """Files kernels from our sources under the environment's folder, one folder per module.
 
     Numba's own locators file them under a hash of the install path; this one does not,
-    so the same sources in another venv find them. The source stamp is numba's content
-    hash of the file.
+    so the same sources in another venv find them. Each kernel module's folder is named by
+    the module and a hash of the sources its kernels compile from (:func:`module_version`),
+    so editing a module recompiles only the kernels that depend on it: a pure-Python
+    behaviour's edit compiles nothing. Numba's source stamp inside the folder is its
+    content hash of the file.
     """
 
     def __init__(self, py_func, py_file: str) -> None:
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
-        self._cache_path = str(_folder / Path(py_file).parent.name)
+        self._cache_path = str(_folder / module_folder_name(Path(py_file)))
 
     def get_cache_path(self) -> str:
         return self._cache_path
@@ -208,3 +303,15 @@ class KernelCacheLocator(*_locator_base()):
         if _folder is None or Path(py_file).resolve().parent not in kernel_dirs():
             return None
         return super().from_function(py_func, py_file)
+
+
+_folder_names: dict[Path, str] = {}
+
+
+def module_folder_name(path: Path) -> str:
+    """The cache folder name of one kernel module: where it lives, then its version."""
+    path = path.resolve()
+    if path not in _folder_names:
+        where = f"{path.parent.name}.{path.stem}"  # "physics.collide", "twig_ecs.kernelmath"
+        _folder_names[path] = f"{where}-{module_version(path)}"
+    return _folder_names[path]

@@ -24,12 +24,12 @@ L_FOOT, R_FOOT, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND = 8, 9,
 # posture modes (CHARACTER_FIELDS["mode"])
 STAND, SIT, RISE, LIMP = 0, 1, 2, 3
 
-# arm modes (CHARACTER_FIELDS["arm_mode"]), see systems/arms.py
+# arm modes (CHARACTER_FIELDS["arm_mode"]), see systems/control/arms.py
 HANG, REACH, GRAPPLE, HUG, WAVE, POINT, CARRY = 0, 1, 2, 3, 4, 5, 6
 ARM_MODES = {"hang": HANG, "reach": REACH, "grapple": GRAPPLE, "hug": HUG, "wave": WAVE, "point": POINT,
              "carry": CARRY}  # fmt: skip
 
-# gaze modes (CHARACTER_FIELDS["gaze_mode"]), see systems/gaze.py: where the head turns to
+# gaze modes (CHARACTER_FIELDS["gaze_mode"]), see systems/control/gaze.py: where the head turns to
 GAZE_AHEAD, GAZE_POINT, GAZE_NODE = 0, 1, 2  # the way it walks (or faces); gaze_point; gaze_node
 
 

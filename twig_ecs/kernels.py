@@ -47,7 +47,7 @@ from twig_ecs.kernelcache import (  # noqa: F401 - the cache's public names, her
     configure_cache,
     jit_disabled,
     kernel_dirs,
-    kernel_version,
+    kernel_modules,
 )
 
 _PACKAGE = kernelcache._PACKAGE
@@ -67,17 +67,8 @@ _checked = False
 def _kernels() -> list:
     """The kernels every scene runs (a crowd's wander kernel compiles on its first use only,
     so a scene without one would never find it cached and announce a compile each run)."""
-    from twig_ecs.systems import (
-        arms,
-        collide,
-        constrain,
-        gait,
-        gaze,
-        integrate,
-        posture,
-        respiration,
-        sense,
-    )
+    from twig_ecs.systems.control import arms, gait, gaze, posture, respiration
+    from twig_ecs.systems.physics import collide, constrain, integrate, sense
 
     return [integrate.integrate_nodes, constrain.solve_constraints, collide.collider_pairs,
             collide.solve_collisions, sense.feel_impacts, gait.control_gait, gaze.control_gaze,
@@ -255,9 +246,8 @@ def _import_kernel_modules() -> None:
     import importlib
 
     importlib.import_module("twig_ecs.kernelmath")
-    for path in sorted(kernel_dirs()[1].glob("*.py")):
-        if path.stem != "__init__":
-            importlib.import_module(f"twig_ecs.systems.{path.stem}")
+    for name in kernel_modules():
+        importlib.import_module(name)
 
 
 def _cached_on_disk(kernel) -> bool:

@@ -72,13 +72,13 @@ def work(job: dict) -> int:
     scene.step(0)  # install the systems
     if scene.state.colliders_dirty:
         scene.state.rebuild_colliders()
-    systems = list(scene._installed or ())
+    systems = scene.schedule.systems()
     if job["order"] == "reverse":
         systems.reverse()
     skipped = []
     for system in systems:
         try:
-            system.process(scene.dt)
+            system.run(scene.step_context())
         except _Claimed:
             skipped.append(system)
         except Exception:  # noqa: BLE001 - out of order a system may trip; the other worker runs it in order
@@ -88,7 +88,7 @@ def work(job: dict) -> int:
     for system in skipped:  # what the other worker compiled now loads from the cache
         for _ in range(8):  # each try waits for one kernel the other worker is compiling
             try:
-                system.process(scene.dt)
+                system.run(scene.step_context())
                 break
             except _Claimed:
                 continue

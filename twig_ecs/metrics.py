@@ -15,7 +15,6 @@ import math
 from collections import Counter, defaultdict
 from pathlib import Path
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Attachment, Character, Feisty, Memory, Playful, Rider
@@ -67,20 +66,19 @@ class StoryRecorder:
         """Record the state after one step."""
         scene = self.scene
         self.steps += 1
-        scene.activate()
-        for entity, _ in esper.get_component(Character):
+        for entity, _ in self.scene.world.get_component(Character):
             me = scene.character_handle(entity)
             self.behaviour_time[me.name][me.behaviour] += scene.dt
             for held in me.holding.values():
                 self.held_steps[me.name][held] += 1
-            attachment = esper.try_component(entity, Attachment)
+            attachment = self.scene.world.try_component(entity, Attachment)
             distance = anxiety = math.nan
             if attachment is not None and scene.has_entity(attachment.caregiver):
                 distance = ground_distance(me.position, scene.entity(attachment.caregiver).position)
                 self.max_distance[me.name] = max(self.max_distance[me.name], distance)
                 anxiety = attachment.anxiety
             if self.trace is not None:
-                memory = esper.try_component(entity, Memory)
+                memory = self.scene.world.try_component(entity, Memory)
                 self.trace.append({
                     "time": round(scene.time, 4), "character": me.name,
                     "x": round(float(me.position[0]), 4), "z": round(float(me.position[2]), 4),
@@ -108,9 +106,8 @@ class StoryRecorder:
     def report(self) -> dict:
         """Per-character metrics and the scene's peak spin, JSON-ready."""
         scene = self.scene
-        scene.activate()
         characters = {}
-        for entity, _ in esper.get_component(Character):
+        for entity, _ in self.scene.world.get_component(Character):
             name = scene.name_of(entity)
             entry = {
                 "time_per_behaviour": {k: round(v, 2) for k, v in sorted(self.behaviour_time[name].items())},
@@ -120,17 +117,17 @@ class StoryRecorder:
                     k: round(v / max(self.steps, 1), 3) for k, v in self.held_steps[name].items()
                 },
             }
-            playful = esper.try_component(entity, Playful)
+            playful = self.scene.world.try_component(entity, Playful)
             if playful is not None:
                 entry["ball_touches"] = playful.touches
-            attachment = esper.try_component(entity, Attachment)
+            attachment = self.scene.world.try_component(entity, Attachment)
             if attachment is not None:
                 entry["look_backs"] = attachment.look_backs
                 entry["max_distance_from_caregiver"] = round(self.max_distance[name], 2)
-            feisty = esper.try_component(entity, Feisty)
+            feisty = self.scene.world.try_component(entity, Feisty)
             if feisty is not None:
                 entry["fights"] = feisty.fights
-            rider = esper.try_component(entity, Rider)
+            rider = self.scene.world.try_component(entity, Rider)
             if rider is not None:
                 entry["spins"] = rider.spins
             characters[name] = entry

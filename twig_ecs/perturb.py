@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from twig_ecs.events import Pain
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 #: Natural frequency (rad/s) of the spring on a part that is the whole body (the ball).
@@ -83,14 +84,15 @@ class MouseSpring(System):
         self.row, self.body, self.part = None, None, ""
         self.force = self.yank_energy = 0.0
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Add the spring's acceleration to the held node; a yank is felt as a blow."""
+        dt = ctx.dt
         if self.row is None:
             return
         if not self.scene.has_entity(self.body):  # removed while held
             self.let_go()
             return
-        n, i = self.scene.state.nodes, self.row
+        n, i = ctx.state.nodes, self.row
         stretch = self.target - n.pos[i]
         velocity = (n.pos[i] - n.prev[i]) / dt
         w = self.omega

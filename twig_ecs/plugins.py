@@ -19,40 +19,31 @@ behaviours stage by itself).
 
 from __future__ import annotations
 
+import importlib
+import pkgutil
+from functools import cache
 from typing import TYPE_CHECKING, ClassVar
 
 from twig_ecs.behavior import REGISTRY, Behavior
 from twig_ecs.schedule import BEHAVIOURS
 from twig_ecs.system import System
-from twig_ecs.systems.approach import Approach
-from twig_ecs.systems.arms import ArmsSystem
-from twig_ecs.systems.attachment import AttachmentBehavior
-from twig_ecs.systems.attention import AttentionSystem
-from twig_ecs.systems.carry import Carry, Cradle, Drag
-from twig_ecs.systems.collide import CollideSystem
-from twig_ecs.systems.constrain import ConstrainSystem
-from twig_ecs.systems.embrace import Embrace
-from twig_ecs.systems.fight import Defend, Fight
-from twig_ecs.systems.gait import GaitSystem
-from twig_ecs.systems.gaze import GazeSystem
-from twig_ecs.systems.grapple import Grapple
-from twig_ecs.systems.hug import Hug
-from twig_ecs.systems.integrate import IntegrateSystem
-from twig_ecs.systems.patrol import PatrolSystem
-from twig_ecs.systems.play import Play
-from twig_ecs.systems.posture import PostureSystem
-from twig_ecs.systems.posture_goals import Freeze, Gesture, SitDown, StandUp
-from twig_ecs.systems.respiration import RespirationSystem
-from twig_ecs.systems.ride import Ride
-from twig_ecs.systems.select_behavior import SelectBehaviorSystem
-from twig_ecs.systems.sense import SenseSystem
-from twig_ecs.systems.wander import WanderBehavior
-from twig_ecs.systems.watch import Watch
-from twig_ecs.systems.withdraw import Withdraw
+from twig_ecs.systems import behaviours as behaviour_package
+from twig_ecs.systems.control.arms import ArmsSystem
+from twig_ecs.systems.control.attention import AttentionSystem
+from twig_ecs.systems.control.gait import GaitSystem
+from twig_ecs.systems.control.gaze import GazeSystem
+from twig_ecs.systems.control.patrol import PatrolSystem
+from twig_ecs.systems.control.posture import PostureSystem
+from twig_ecs.systems.control.respiration import RespirationSystem
+from twig_ecs.systems.control.select_behavior import SelectBehaviorSystem
+from twig_ecs.systems.physics.collide import CollideSystem
+from twig_ecs.systems.physics.constrain import ConstrainSystem
+from twig_ecs.systems.physics.integrate import IntegrateSystem
+from twig_ecs.systems.physics.sense import SenseSystem
 
 if TYPE_CHECKING:
     from twig_ecs.goals import GoalSchema
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView
 
 
 class Plugin:
@@ -63,7 +54,7 @@ class Plugin:
     #: The system classes this plugin adds, in the order it adds them.
     systems: ClassVar[tuple[type[System], ...]] = ()
 
-    def build(self, scene: Scene) -> None:
+    def build(self, scene: SceneView) -> None:
         """Add this plugin's systems to ``scene`` (each into the stage of its own name or set)."""
         for cls in self.systems:
             scene.add_system(cls())
@@ -88,29 +79,46 @@ class ControlPlugin(Plugin):
                ArmsSystem, RespirationSystem)  # fmt: skip
 
 
-#: Every built-in behaviour, in the order they propose each step (whichever plugins bring
-#: them): goal behaviours, the answers they draw from others (cradle to carry, embrace to
-#: hug, defend to a fight), the schoolyard's motives and the pain reflex.
-BUILTIN_BEHAVIORS: tuple[type[Behavior], ...] = (
-    Approach, AttachmentBehavior, Carry, Drag, Cradle, Fight, Defend, Grapple, Embrace, Hug, Play,
-    SitDown, StandUp, Freeze, Gesture, Ride, WanderBehavior, Watch, Withdraw,
-)  # fmt: skip
+@cache
+def builtin_behaviors() -> tuple[type[Behavior], ...]:
+    """Every built-in behaviour, in the order they propose each step (whichever plugins bring them).
 
-#: The schoolyard's motives: behaviours a character *has* (a component says how strongly).
-MOTIVES: tuple[type[Behavior], ...] = (AttachmentBehavior, Fight, Play, Ride, WanderBehavior, Watch)
+    Found, not listed: each :class:`~twig_ecs.behavior.Behavior` class defined in a module
+    of the ``twig_ecs.systems.behaviours`` package, modules by name and classes in the
+    order their module defines them. A new built-in behaviour is one module there.
+    """
+    found: list[type[Behavior]] = []
+    for info in sorted(pkgutil.iter_modules(behaviour_package.__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{behaviour_package.__name__}.{info.name}")
+        found += [value for value in vars(module).values()
+                  if isinstance(value, type) and issubclass(value, Behavior)
+                  and value.__module__ == module.__name__ and value.name]  # fmt: skip
+    return tuple(found)
 
-#: The goal behaviours (what a character is told to do), their answers and the pain reflex.
-GOAL_BEHAVIORS: tuple[type[Behavior], ...] = tuple(b for b in BUILTIN_BEHAVIORS if b not in MOTIVES)
+
+def motives() -> tuple[type[Behavior], ...]:
+    """The schoolyard's motives: behaviours a character *has* (a component says how strongly)."""
+    return tuple(b for b in builtin_behaviors() if b.component is not None)
+
+
+def goal_behaviors() -> tuple[type[Behavior], ...]:
+    """The goal behaviours (what a character is told to do), their answers and the pain reflex."""
+    return tuple(b for b in builtin_behaviors() if b.component is None)
 
 
 class _BuiltinBehaviours(Plugin):
-    """Adds built-in behaviours so that they propose in :data:`BUILTIN_BEHAVIORS` order,
+    """Adds built-in behaviours so that they propose in :func:`builtin_behaviors` order,
     whichever of the behaviour plugins a scene has and in whatever order it lists them."""
 
-    def build(self, scene: Scene) -> None:
+    @staticmethod
+    def behaviours() -> tuple[type[Behavior], ...]:
+        """The behaviours this plugin brings."""
+        raise NotImplementedError
+
+    def build(self, scene: SceneView) -> None:
         stages = scene.schedule.stages
-        names = [b.name for b in BUILTIN_BEHAVIORS]
-        for cls in self.systems:
+        names = [b.name for b in builtin_behaviors()]
+        for cls in self.behaviours():
             at = names.index(cls.name)
             # between its nearest built-in neighbours already in the schedule (a linked-list insert)
             after = next((n for n in reversed(names[:at]) if n in stages), None)
@@ -129,14 +137,22 @@ class SchoolyardMotivesPlugin(_BuiltinBehaviours):
     """
 
     name = "motives"
-    systems = MOTIVES
+
+    @staticmethod
+    def behaviours() -> tuple[type[Behavior], ...]:
+        """Every built-in behaviour with a component: the motives."""
+        return motives()
 
 
 class BehavioursPlugin(_BuiltinBehaviours):
     """The goal behaviours (approach, carry, hug, sit...), their answers and the pain reflex."""
 
     name = "behaviours"
-    systems = GOAL_BEHAVIORS
+
+    @staticmethod
+    def behaviours() -> tuple[type[Behavior], ...]:
+        """Every built-in behaviour without a component."""
+        return goal_behaviors()
 
 
 def default_plugins() -> list[Plugin]:
@@ -146,7 +162,7 @@ def default_plugins() -> list[Plugin]:
 
 def load_builtin_behaviors() -> dict[str, type[Behavior]]:
     """The registry of behaviour kinds, by name, with the built-in ones certainly in it."""
-    for cls in BUILTIN_BEHAVIORS:
+    for cls in builtin_behaviors():
         REGISTRY.setdefault(cls.name, cls)
     return {k: v for k, v in REGISTRY.items() if v.__module__.startswith("twig_ecs.")}
 

@@ -1,6 +1,6 @@
-"""The Scene: one esper world plus the resources esper lacks, stepped at a fixed 60 Hz.
+"""The Scene: a world of entities plus its resources, stepped at a fixed 60 Hz.
 
-A Scene owns its world (and switches to it whenever it runs), the
+A Scene owns its :class:`~twig_ecs.world.World` (entities and components), the
 :class:`~twig_ecs.store.PhysicsState` store, one seeded RNG, the settings, the named
 system schedule (filled by its plugins, :mod:`twig_ecs.plugins`) and an
 :class:`~twig_ecs.events.EventBus`. Scenes never share entities. Store surgery for grab
@@ -14,11 +14,11 @@ import hashlib
 import itertools
 import threading
 import time
+import weakref
 from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import esper
 import numpy as np
 
 from twig_ecs import grabs as grab_joints
@@ -28,7 +28,6 @@ from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.clock import STEP, FixedStepClock
 from twig_ecs.components import Character, GrabJoint, Memory, Name
 from twig_ecs.errors import SceneError, TwigError
-from twig_ecs.esperworld import make_deterministic, new_world_name
 from twig_ecs.events import Event, EventBus
 from twig_ecs.grabs import RELEASE_GRACE_STEPS  # noqa: F401 - its old home; tests and plug-ins read it here
 from twig_ecs.handles import BodyHandle
@@ -38,16 +37,25 @@ from twig_ecs.plugins import Plugin, default_plugins
 from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_entity, read_scene
 from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
+from twig_ecs.step import StepContext
 from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
 from twig_ecs.trust import trusting
 from twig_ecs.validate import seed as seed_value
 from twig_ecs.validate import suggest
+from twig_ecs.world import World
 from twig_ecs.yamldoc import YDict
 
-#: Held for each step of any scene (and its set-up): esper's current world is one per process,
-#: so scenes stepped from several threads take turns a step at a time.
+#: Held for each step of any scene (and its set-up): scenes stepped from several threads take
+#: turns a step at a time, so kernels' thread pool serves one step at once.
 STEP_LOCK = threading.RLock()
+#: Scenes made in this process and not closed (weakly: a dropped scene leaves it).
+_OPEN: weakref.WeakSet[Scene] = weakref.WeakSet()
+
+
+def open_scenes() -> list[Scene]:
+    """The scenes of this process that are alive and not closed (tests check none is left)."""
+    return list(_OPEN)
 
 
 class Scene:
@@ -91,8 +99,9 @@ class Scene:
         self.bus = EventBus()
         self._names: dict[str, int] = {}
         self._name_by_entity: dict[int, str] = {}  # the reverse of _names: handles are made per step
-        self._world = new_world_name()
+        self.world = World()
         self._closed = False
+        _OPEN.add(self)
         self.schedule = Schedule()
         self._installed: list[System] | None = None
         # characters that were given goals (entity -> Mind), pruned when their goals run
@@ -103,8 +112,6 @@ class Scene:
         self._goal_index: tuple[tuple[int, int], dict[str, list[tuple[int, Mind]]]] = ((-1, -1), {})
         self._goal_changes = 0
         self.goals_made = 0  # goal ids count per scene, so a restored or replayed scene numbers alike
-        self.activate()
-        make_deterministic()
         self.behaviors: dict[str, Behavior] = {}
         self.plugins: list[Plugin] = plugins
         try:
@@ -166,10 +173,10 @@ class Scene:
             for spec in plan.entities:
                 scene._spawn_spec(spec)
                 for behavior in spec.behaviors:
-                    esper.add_component(scene._names[spec.name], behavior.component)
+                    scene.world.add_component(scene._names[spec.name], behavior.component)
                 if spec.perception is not None:
-                    esper.add_component(scene._names[spec.name], spec.perception)
-                    esper.add_component(scene._names[spec.name], Memory())
+                    scene.world.add_component(scene._names[spec.name], spec.perception)
+                    scene.world.add_component(scene._names[spec.name], Memory())
             for i, spec in enumerate(plan.entities):  # starting commands may name later entities
                 if spec.character is not None and spec.character.start:
                     try:
@@ -188,7 +195,7 @@ class Scene:
     parameters: dict[str, int | float] = {}
 
     def _spawn_spec(self, spec: EntitySpec) -> BodyHandle:
-        self.activate()
+        self.check_open()
         entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
                             spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
         self._names[spec.name] = entity
@@ -235,9 +242,9 @@ class Scene:
 
         Goals of other characters that name it (as target, destination or seat) fail.
         """
-        entity = self._entity_id(name)
-        self.activate()
-        for other, (_, mind) in list(esper.get_components(Character, Mind)):
+        entity = self.entity_id(name)
+        self.check_open()
+        for other, (_, mind) in list(self.world.get_components(Character, Mind)):
             for goal in list(mind.goals):
                 if other != entity and name in (goal.params.get("target"), goal.params.get("to"),
                                                 goal.params.get("on")):  # fmt: skip
@@ -258,18 +265,18 @@ class Scene:
         given: a hand on the surface of a torso rather than at the node inside it.
         Returns the grab joint's entity; :meth:`release` removes it.
         """
-        self.activate()
+        self.check_open()
         return grab_joints.join(self, self.entity(holder), node, self.entity(target), target_node, standoff)
 
     def release(self, grab: int) -> None:
         """Remove a grab joint made by :meth:`grab` (its entity id)."""
-        self.activate()
+        self.check_open()
         grab_joints.release(self, grab)
 
     def grabs(self) -> list[tuple[int, GrabJoint]]:
         """All grab joints as (entity, GrabJoint)."""
-        self.activate()
-        return list(esper.get_component(GrabJoint))
+        self.check_open()
+        return list(self.world.get_component(GrabJoint))
 
     # -- systems --------------------------------------------------------------------
 
@@ -282,16 +289,11 @@ class Scene:
         system.setup()
         if isinstance(system, Behavior):
             self.behaviors[name or system.name] = system
-        self._installed = None  # re-map onto esper priorities before the next step
+        self._installed = None  # the schedule's order is read again before the next step
         return system
 
     def _install(self) -> None:
-        systems = self.schedule.systems()
-        for processor in list(esper._processors):  # noqa: SLF001 - esper has no clear API
-            esper.remove_processor(type(processor))
-        for rank, system in enumerate(systems):
-            esper.add_processor(system, priority=len(systems) - rank)
-        self._installed = systems
+        self._installed = self.schedule.systems()
 
     # -- running ----------------------------------------------------------------------
 
@@ -300,12 +302,10 @@ class Scene:
         """Simulated time (s) since the scene started: frame * dt."""
         return self.frame * self.dt
 
-    def activate(self) -> None:
-        """Make this scene's esper world the current one."""
+    def check_open(self) -> None:
+        """Raise :class:`~twig_ecs.errors.TwigError` if the scene has been closed."""
         if self._closed:
             raise TwigError(f"scene '{self.name}' is closed")
-        if esper.current_world != self._world:
-            esper.switch_world(self._world)
 
     def step(self, n: int = 1, times: dict[str, list[float]] | None = None) -> None:
         """Advance ``n`` fixed steps of 1/60 s: the one step loop.
@@ -316,12 +316,10 @@ class Scene:
         ``times``: also append each system's wall seconds to ``times[name]`` (``twig
         bench``); timing a step never changes what it computes.
 
-        Scenes stepped from several threads take turns, a step at a time: esper's
-        current world is one per process, and a step must not find another scene's
-        world made current halfway through.
+        Scenes stepped from several threads take turns, a step at a time (:data:`STEP_LOCK`).
         """
         with STEP_LOCK:
-            self.activate()
+            self.check_open()
             if self._installed is None:
                 self._install()
         ensure_compiled()
@@ -332,23 +330,30 @@ class Scene:
 
     def _step_once(self, state: PhysicsState, dt: float, times: dict[str, list[float]] | None) -> None:
         """One step of :meth:`step` (under :data:`STEP_LOCK`)."""
-        self.activate()
+        self.check_open()
         state.tick_released()
         if state.colliders_dirty:
             state.rebuild_colliders()
         self.bus.next_step()
-        esper.clear_dead_entities()  # entities deleted with deferred delete go now
+        self.world.clear_dead_entities()  # entities deleted with deferred delete go now
         grab_joints.slip(self)  # grips the last step pulled too far give way
+        ctx = self.step_context()
         if times is None:
             for system in self._installed:
-                system.process(dt)
+                system.run(ctx)
         else:
             clock = time.perf_counter
             for system in self._installed:
                 t0 = clock()
-                system.process(dt)
+                system.run(ctx)
                 times.setdefault(system.name, []).append(clock() - t0)
         self.frame += 1
+
+    def step_context(self) -> StepContext:
+        """The context the next step hands every system (:class:`~twig_ecs.step.StepContext`)."""
+        return StepContext(dt=self.dt, frame=self.frame, time=self.frame * self.dt, world=self.world,
+                           state=self.state, rng=self.rng, settings=self.settings, events=self.bus,
+                           scene=self)  # fmt: skip
 
     def step_timed(self, times: dict[str, list[float]]) -> float:
         """One :meth:`step`, timing each system into ``times``; returns the step's wall time (s)."""
@@ -391,7 +396,8 @@ class Scene:
 
     # -- reading ------------------------------------------------------------------------
 
-    def _entity_id(self, name: str) -> int:
+    def entity_id(self, name: str) -> int:
+        """The entity id of the entity called ``name`` (KeyError with suggestions if unknown)."""
         try:
             return self._names[name]
         except KeyError:
@@ -441,7 +447,7 @@ class Scene:
             return
         self._goal_changes += 1
         goal.status, goal.reason = ("done" if ok else "failed"), reason
-        mind = esper.component_for_entity(character.entity, Mind)
+        mind = self.world.component_for_entity(character.entity, Mind)
         if goal in mind.goals:
             mind.goals.remove(goal)
         if ok:
@@ -456,9 +462,9 @@ class Scene:
 
         Characters get a :class:`~twig_ecs.character.CharacterHandle` with the control API.
         """
-        entity = self._entity_id(name)
-        self.activate()
-        if esper.has_component(entity, Character):
+        entity = self.entity_id(name)
+        self.check_open()
+        if self.world.has_component(entity, Character):
             return CharacterHandle(self, entity, name)
         return BodyHandle(self, entity, name)
 
@@ -474,10 +480,10 @@ class Scene:
     def name_of(self, entity: int) -> str | None:
         """The name of an entity (a body; None for a grab joint or an unknown entity)."""
         name = self._name_by_entity.get(entity)
-        if name is not None:  # a named body: the common case, without esper look-ups
+        if name is not None:  # a named body: the common case, without component look-ups
             return name
-        self.activate()
-        name = esper.try_component(entity, Name)
+        self.check_open()
+        name = self.world.try_component(entity, Name)
         return name.value if name else None
 
     def new_goal_id(self) -> int:
@@ -512,14 +518,17 @@ class Scene:
 
     # -- lifetime ------------------------------------------------------------------------
 
+    def _reopen(self) -> None:
+        """Open a scene just read from a snapshot (whose process-bound parts were left out)."""
+        self._closed = False
+        self._installed = None  # the schedule's order is read again at the first step
+        _OPEN.add(self)
+
     def close(self) -> None:
         """Delete this scene's world; the scene cannot be used afterwards."""
         if self._closed:
             return
-        if esper.current_world == self._world:
-            esper.switch_world("default")
-        if self._world in esper.list_worlds():
-            esper.delete_world(self._world)
+        _OPEN.discard(self)
         self._closed = True
 
     def __enter__(self) -> Scene:

@@ -13,7 +13,7 @@ stage (:data:`BEHAVIOURS`) takes any number of systems: a system whose class nam
 as its ``stage`` joins it when added without ``before``/``after`` (every behaviour
 proposes its activations there, before ``select_behavior`` picks the winners).
 The order is resolved once (a topological sort that keeps insertion order where the
-constraints allow) and mapped onto esper processor priorities; a cycle or an unknown
+constraints allow) and run in that order; a cycle or an unknown
 stage name is a :class:`~twig_ecs.errors.ScheduleError`.
 """
 

@@ -1,7 +1,7 @@
 """Snapshot files: the whole state of a scene in one versioned, checksummed file of data.
 
 A snapshot holds everything a scene needs to run on exactly as it would have: the
-physics store, every esper entity and component, the systems and behaviours with their
+physics store, every entity and component, the systems and behaviours with their
 own state, the RNG, pending goals, grab joints, the clock and the scene's own event
 subscribers. Restoring it and stepping gives the same :meth:`Scene.state_hash` as never
 having stopped.
@@ -43,23 +43,24 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import esper
-
-from twig_ecs import esperworld, worlddata
+from twig_ecs import worlddata
 from twig_ecs.behavior import Mind
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.files import read_bounded
 from twig_ecs.kernels import ensure_compiled
+from twig_ecs.plugins import builtin_behaviors
 from twig_ecs.store import check_store
 from twig_ecs.trust import UntrustedCode, check_snapshot_plugin, is_trusted, module_allowed
 from twig_ecs.version import __version__
+from twig_ecs.world import World, check_world
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 4  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+FORMAT_VERSION = 5  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
 # 3: hands gliding in a hug or an embrace are a character-table column (hand_aim), not a HandAims component
 # 4: the payload is data (twig_ecs.worlddata: JSON structure + array bytes), no longer a pickle
+# 5: systems live in feature packages (twig_ecs.systems.physics/control/behaviours): classes moved
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32
@@ -69,7 +70,7 @@ MAX_BYTES = 256 << 20
 #: The largest meta (scene name, plug-in list, dropped subscribers...).
 MAX_META_BYTES = 1 << 20
 #: Scene attributes that belong to this process, not to the world.
-_TRANSIENT = ("_world", "_installed", "_closed")
+_TRANSIENT = ("_installed", "_closed")
 
 
 class SnapshotError(TwigError):
@@ -81,7 +82,6 @@ class SnapshotError(TwigError):
 
 def snapshot(scene) -> bytes:
     """The bytes of a snapshot of ``scene`` (see the module docstring for the layout)."""
-    scene.activate()
     dropped: list[str] = []
     handlers = scene._handlers  # noqa: SLF001 - the snapshot is the scene's own serialiser
     kept = {kind: [h for h in hs if _belongs(scene, h, dropped, f"subscriber of '{kind}'")]
@@ -103,7 +103,7 @@ def snapshot(scene) -> bytes:
                 goal.on_end = None
         schema = worlddata.Schema()
         structure, arrays, plugins = worlddata.encode(
-            [scene, esperworld.capture()], schema, state_of=state_of, plugin_ok=_writable_plugin
+            scene, schema, state_of=state_of, plugin_ok=_writable_plugin
         )
     except worlddata.DataError as exc:
         raise SnapshotError(f"cannot snapshot scene '{scene.name}': {exc}") from None
@@ -140,7 +140,7 @@ def save(scene, path: str | Path) -> dict[str, Any]:
 
 
 def _goals(scene) -> list:
-    return [goal for _, mind in esper.get_component(Mind) for goal in mind.goals]
+    return [goal for _, mind in scene.world.get_component(Mind) for goal in mind.goals]
 
 
 #: Packages whose classes are never plug-in state (outside twig_ecs's own world modules).
@@ -252,6 +252,7 @@ def _split(data: bytes) -> tuple[dict[str, Any], bytes]:
 def restore(data: bytes):
     """A new :class:`~twig_ecs.scene.Scene` from snapshot bytes (see :meth:`Scene.restore`)."""
     meta, payload = _split(data)
+    builtin_behaviors()  # the class table is made from imported world modules: every behaviour's
     allowed = _import_plugins(meta.get("plugins", []))
     if len(payload) < _LEN.size:
         raise SnapshotError("snapshot corrupt: its payload is shorter than its own length field")
@@ -263,20 +264,14 @@ def restore(data: bytes):
         root = worlddata.decode(structure, payload[_LEN.size + structure_len :], worlddata.Schema(allowed))
     except worlddata.DataError as exc:
         raise SnapshotError(f"snapshot unreadable: {exc}") from None
-    if type(root) is not list or len(root) != 2:
+    scene = root
+    if not _is_scene_class(type(scene)) or not isinstance(getattr(scene, "world", None), World):
         raise SnapshotError("snapshot corrupt: it does not hold a scene")
-    scene, world = root
-    if not _is_scene_class(type(scene)) or not isinstance(world, dict):
-        raise SnapshotError("snapshot corrupt: it does not hold a scene")
-    scene._world = esperworld.new_world_name()  # noqa: SLF001
-    scene._closed = False  # noqa: SLF001
-    scene._installed = None  # noqa: SLF001 - systems are re-installed as esper processors
-    previous = esper.current_world
-    scene.activate()
+    scene._reopen()  # noqa: SLF001 - the snapshot is the scene's own serialiser
     try:
         check_store(scene.state)
-        esperworld.restore(world)
-        _check_components(scene.state)
+        check_world(scene.world)
+        _check_components(scene.world, scene.state)
         scene.state.version += 1  # every cache of row indices a system kept is made again
         ensure_compiled()
         matches = scene.state_hash() == meta.get("state_hash")
@@ -287,20 +282,17 @@ def restore(data: bytes):
         scene.close()
         why = type(exc).__name__
         raise SnapshotError(f"snapshot corrupt: its world cannot be restored ({why})") from None
-    finally:
-        if previous in esper.list_worlds() and previous != esper.current_world:
-            esper.switch_world(previous)
     if not matches:
         scene.close()
         raise SnapshotError("snapshot corrupt: the restored positions do not match its state hash")
     return scene
 
 
-def _check_components(state) -> None:
+def _check_components(world: World, state) -> None:
     """Components that hold store rows must point at rows that exist (ValueError saying which)."""
     nodes, links, bodies, characters = (state.nodes.count, state.links.count, state.bodies.count,
                                         state.characters.count)  # fmt: skip
-    for entity, body in esper.get_component(Body):
+    for entity, body in world.get_component(Body):
         size = len(body.node_names) if isinstance(body.node_names, tuple | list) else -1
         if not (
             _row(body.index, bodies) and _row(body.node_start, nodes) and 0 < size <= nodes - body.node_start
@@ -308,10 +300,10 @@ def _check_components(state) -> None:
             and 0 <= body.link_count <= links - body.link_start
         ):  # fmt: skip
             raise ValueError(f"entity {entity}'s body points outside the store")
-    for entity, character in esper.get_component(Character):
+    for entity, character in world.get_component(Character):
         if not _row(character.index, characters):
             raise ValueError(f"entity {entity}'s character row is outside the store")
-    for entity, joint in esper.get_component(GrabJoint):
+    for entity, joint in world.get_component(GrabJoint):
         if not _row(joint.index, links):
             raise ValueError(f"grab joint {entity}'s link row is outside the store")
 

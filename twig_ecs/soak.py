@@ -148,7 +148,7 @@ class Health:
 
     def _deepest_overlap(self) -> str:
         """'a / b': the two bodies of the deepest overlapping collider pair (computed only on failure)."""
-        from twig_ecs.systems.collide import closest_segment_params
+        from twig_ecs.systems.physics.collide import closest_segment_params
 
         st = self.scene.state
         pos, col, flags = st.nodes.pos, st.colliders, st.nodes.flags

@@ -1,11 +1,10 @@
-"""Spawning: turn a body template into store rows and esper entities."""
+"""Spawning: turn a body template into store rows and world entities."""
 
 from __future__ import annotations
 
 import math
 from typing import TYPE_CHECKING
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Body, Name, PainSensor
@@ -22,7 +21,7 @@ from twig_ecs.store import (
 from twig_ecs.templates import BodyTemplate, Damping
 
 if TYPE_CHECKING:
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView
 
 #: Most bodies one scene may hold (twice the crowd's largest count): every step costs at least
 #: their number, and a server must keep answering.
@@ -41,7 +40,7 @@ def yaw_matrix(degrees: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float) -> None:
+def check_capacity(scene: SceneView, name: str, template: BodyTemplate, scale: float) -> None:
     """Refuse (SceneError, with the limit and the way out) a body past MAX_BODIES or MAX_EXTENT.
 
     Called before anything of the body is made (store rows, entities, colliders).
@@ -61,7 +60,7 @@ def check_capacity(scene: Scene, name: str, template: BodyTemplate, scale: float
                          f"height or radius")  # fmt: skip
 
 
-def crowding(scene: Scene, template: BodyTemplate, scale: float, position, facing: float) -> list[int]:
+def crowding(scene: SceneView, template: BodyTemplate, scale: float, position, facing: float) -> list[int]:
     """The bodies (store rows) with a node reaching into the box a new body would fill there.
 
     The server refuses a spawn into a pile (see ``twig_ecs.server.methods.MAX_CROWD``): a
@@ -79,7 +78,7 @@ def crowding(scene: Scene, template: BodyTemplate, scale: float, position, facin
 
 
 def spawn_body(
-    scene: Scene,
+    scene: SceneView,
     template: BodyTemplate,
     name: str,
     position: tuple[float, float, float] = (0.0, 0.0, 0.0),
@@ -108,7 +107,7 @@ def spawn_body(
     index = {n.name: k for k, n in enumerate(template.nodes)}
 
     body = state.add_body()
-    body_entity = esper.create_entity()
+    body_entity = scene.world.create_entity()
     state.bodies.entity[body] = body_entity
     state.bodies.self_collide[body] = template.self_collision
     sensor = template.pain if pain is True else pain
@@ -214,6 +213,6 @@ def spawn_body(
         ),
     ]
     for component in components:
-        esper.add_component(body_entity, component)
+        scene.world.add_component(body_entity, component)
     state.colliders_dirty = True  # rebuilt once before the next step, not per spawn
     return body_entity

@@ -35,7 +35,9 @@ LINK_OFF = 64  # switched off: the solver ignores it (a brace of a controlled ch
 # Kinds of ballistic move (NODE_FIELDS["move_gravity"]): how a node flies while move_time lasts.
 MOVE_LINE = 0  # a straight line at constant velocity (no gravity)
 MOVE_ARC = 1  # an arc under gravity (a kick, a classic step)
-MOVE_GAIT_ARC = 2  # an arc under the human gait's lighter gravity, re-aimed in flight (systems/gait.py)
+MOVE_GAIT_ARC = (
+    2  # an arc under the human gait's lighter gravity, re-aimed in flight (systems/control/gait.py)
+)
 
 #: Array names of each block, with (dtype, trailing shape, fill value for new rows).
 NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
@@ -72,7 +74,7 @@ LINK_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "flags": (np.uint32, (), 0),
     "group": (np.int32, (), 0),  # self-collision group (0: collides with any link of its body)
     "body": (np.int32, (), -1),
-    "entity": (np.int64, (), -1),  # esper entity of the grab joint on this row (-1: a body's own link)
+    "entity": (np.int64, (), -1),  # world entity of the grab joint on this row (-1: a body's own link)
     "color": (np.float32, (4,), 1.0),
 }
 
@@ -134,10 +136,14 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "gaze_point": (np.float64, (3,), 0.0),
     "gaze_node": (np.int32, (), -1),
     "head_dir": (np.float64, (3,), 0.0),  # unit vector the face points along
-    "arm_mode": (np.int32, (2,), 0),  # per hand (left, right): kernelmath.HANG, REACH... (systems/arms.py)
+    "arm_mode": (
+        np.int32,
+        (2,),
+        0,
+    ),  # per hand (left, right): kernelmath.HANG, REACH... (systems/control/arms.py)
     "arm_point": (np.float64, (2, 3), 0.0),
     "arm_node": (np.int32, (2,), -1),
-    # where a hand gliding round a body in a hug or an embrace has got to (systems/embrace.py
+    # where a hand gliding round a body in a hug or an embrace has got to (systems/behaviours/embrace.py
     # glide_hand): its reach point moves a little towards its goal each step; NaN: not gliding
     "hand_aim": (np.float64, (2, 3), np.nan),
     "swing": (np.float64, (2,), 0.0),  # s left in each foot's step (0: planted)
@@ -158,7 +164,7 @@ BODY_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "pain_half_life": (np.float64, (), 1.0),  # seconds
     "pain_gain": (np.float64, (), 1.0),
     "alive": (np.uint8, (), 0),
-    "entity": (np.int64, (), -1),  # esper entity carrying the Body component
+    "entity": (np.int64, (), -1),  # world entity carrying the Body component
     "self_collide": (np.uint8, (), 1),  # may its own non-adjacent links collide?
 }
 
@@ -412,7 +418,7 @@ def gripped_nodes(state: PhysicsState) -> np.ndarray:
     """Per node row: is it an end of a grab joint (a hand that holds, or the node it holds)?
 
     The joint welds the two into one point: a joint limit whose middle node is held leaves
-    the bending to the hand (``systems/constrain.py``), and a grip pulled too hard gives way
+    the bending to the hand (``systems/physics/constrain.py``), and a grip pulled too hard gives way
     (:func:`twig_ecs.grabs.slip`).
     """
     nodes, links = state.nodes, state.links

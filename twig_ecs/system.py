@@ -4,17 +4,18 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, ClassVar
 
-import esper
-
 if TYPE_CHECKING:
-    from twig_ecs.scene import Scene
+    from twig_ecs.step import SceneView, StepContext
+    from twig_ecs.world import World
 
 
-class System(esper.Processor):
-    """An esper processor that knows its scene.
+class System:
+    """A step of a scene's schedule that knows its scene.
 
     Subclasses set ``name`` (the stage name others order against) and implement
-    :meth:`process`, which is called once per fixed step with ``dt`` in seconds.
+    :meth:`run`, called once per fixed step with that step's
+    :class:`~twig_ecs.step.StepContext` (dt, time, world, store, RNG, events) - or the
+    simpler :meth:`process`, called with ``dt`` alone.
     :meth:`setup` runs once when the scene adds the system (after ``self.scene`` is set).
     A class may name a set ``stage`` of the schedule (like ``"behaviours"``) that its
     systems join when they are added without ``before``/``after``.
@@ -23,11 +24,20 @@ class System(esper.Processor):
     name: str = ""
     #: The set stage this kind of system joins by default (see :mod:`twig_ecs.schedule`).
     stage: ClassVar[str | None] = None
-    scene: Scene
+    scene: SceneView
+
+    @property
+    def world(self) -> World:
+        """The scene's entities and components."""
+        return self.scene.world
 
     def setup(self) -> None:
         """Prepare caches; called once when added to a scene."""
 
-    def process(self, dt: float) -> None:  # noqa: D401 - esper's signature
-        """Advance this system by one fixed step of ``dt`` seconds."""
+    def run(self, ctx: StepContext) -> None:
+        """Advance this system by one fixed step (the default calls :meth:`process`)."""
+        self.process(ctx.dt)
+
+    def process(self, dt: float) -> None:
+        """Advance this system by one fixed step of ``dt`` seconds (or override :meth:`run`)."""
         raise NotImplementedError

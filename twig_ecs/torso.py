@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import math
 
-import esper
-
 from twig_ecs.components import Character
 from twig_ecs.scene import Scene
 
@@ -38,8 +36,7 @@ class TorsoRecorder:
     def step(self) -> None:
         """Measure every character's torso after one step."""
         scene = self.scene
-        scene.activate()
-        for entity, _ in esper.get_component(Character):
+        for entity, _ in self.scene.world.get_component(Character):
             me = scene.character_handle(entity)
             pitch = me.torso_pitch
             entry = self.figures.setdefault(

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior
@@ -47,14 +46,14 @@ class Dance(Behavior):
     def start(self, character, goal) -> None:
         """Remember where the dance floor is (on the character: the scene's inspector and
         snapshots see it, and it goes when the character does)."""
-        esper.add_component(character.entity, DanceFloor(character.position.copy()))
+        self.world.add_component(character.entity, DanceFloor(character.position.copy()))
 
     def act(self, character, mind, goal, dt: float) -> None:
         """Step left and right round the spot, waving one arm and then the other."""
         mood = self.settings(character)
         phase = 2 * math.pi * mood.tempo * character.scene.time
         side = character.facing[[2, 0]] * [1, -1]  # the character's left, on the ground
-        drift = esper.component_for_entity(character.entity, DanceFloor).at - character.position
+        drift = self.world.component_for_entity(character.entity, DanceFloor).at - character.position
         vx = side[0] * mood.sway * math.sin(phase) + 0.5 * drift[0]
         vz = side[1] * mood.sway * math.sin(phase) + 0.5 * drift[2]
         character.walk((vx, 0.0, vz))
@@ -64,6 +63,6 @@ class Dance(Behavior):
 
     def stop(self, character, goal) -> None:
         """Stand still, arms down; the dance floor is forgotten."""
-        esper.remove_component(character.entity, DanceFloor)
+        self.world.remove_component(character.entity, DanceFloor)
         character.stop()
         character.gesture(None, hand="both")

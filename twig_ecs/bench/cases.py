@@ -126,14 +126,11 @@ class Stroll(Behavior):
 
 def plugin_strollers(count: int) -> Scene:
     """``count`` characters, each strolling round its own circle under :class:`Stroll`."""
-    import esper
-
     scene = Scene.load("empty")
     scene.add_system(Stroll())
     side = math.ceil(math.sqrt(count))
     for k in range(count):
         x, z = (k % side) * 4.0, (k // side) * 4.0
         person = scene.spawn("humanoid", name=f"s{k}", position=(x + 1.5, 0.0, z), character=True)
-        scene.activate()
-        esper.add_component(person.entity, Strolling(centre=(x, z)))
+        scene.world.add_component(person.entity, Strolling(centre=(x, z)))
     return scene

@@ -25,7 +25,6 @@ import importlib
 from collections import deque
 from pathlib import Path
 
-import esper
 import numpy as np
 
 from twig_ecs.errors import TwigError
@@ -112,7 +111,7 @@ class History:
             mind = getattr(handle, "mind", None)
             if mind is None:
                 continue
-            attachment = esper.try_component(handle.entity, Attachment)
+            attachment = self.scene.world.try_component(handle.entity, Attachment)
             anxiety = attachment.anxiety if attachment is not None else 0.0
             row = (now, anxiety, handle.pain, dict(mind.last))
             self.samples.setdefault(name, deque(maxlen=keep)).append(row)

@@ -174,20 +174,16 @@ def _activations(handle) -> str:
 
 
 def _focus(handle) -> str:
-    import esper
-
     from twig_ecs.components import Memory
 
-    memory = esper.try_component(handle.entity, Memory)
+    memory = handle.world.try_component(handle.entity, Memory)
     return memory.focus if memory is not None and memory.focus else "-"
 
 
 def _anxiety(handle) -> str:
-    import esper
-
     from twig_ecs.components import Attachment
 
-    attachment = esper.try_component(handle.entity, Attachment)
+    attachment = handle.world.try_component(handle.entity, Attachment)
     return f"{attachment.anxiety:4.2f}" if attachment is not None else "-"
 
 

@@ -161,13 +161,11 @@ def face_frames(pos: np.ndarray, faces: Faces, gaze: np.ndarray | None = None) -
 
 def attention_lines(scene, pos: np.ndarray) -> np.ndarray:
     """Thin capsules from each perceiving character's head to its focus of attention."""
-    import esper
 
     from twig_ecs.components import Memory
 
-    scene.activate()
     starts, ends = [], []
-    for entity, memory in esper.get_component(Memory):
+    for entity, memory in scene.world.get_component(Memory):
         if memory.focus is None or not scene.has_entity(memory.focus):
             continue
         me, it = scene.entity(scene.name_of(entity)), scene.entity(memory.focus)

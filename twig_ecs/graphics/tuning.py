@@ -19,8 +19,6 @@ import math
 from dataclasses import MISSING, dataclass, fields, is_dataclass
 from pathlib import Path
 
-import esper
-
 #: Float fields of behaviour components that are the behaviour's state, not a parameter.
 STATE_FIELDS = frozenset({"anxiety"})
 
@@ -54,7 +52,6 @@ class Tunable:
 
 def find_tunables(scene) -> list[Tunable]:
     """Every behaviour parameter (a float of a behaviour's component) of every character."""
-    scene.activate()  # the scene's esper world
     kinds = {}
     for name, system in scene.behaviors.items():
         component = getattr(system, "component", None)
@@ -64,7 +61,7 @@ def find_tunables(scene) -> list[Tunable]:
     for entity_name in scene.entity_names:
         entity = scene.entity(entity_name).entity
         for component_type, behaviour in kinds.items():
-            component = esper.try_component(entity, component_type)
+            component = scene.world.try_component(entity, component_type)
             if component is None:
                 continue
             for f in fields(component_type):

@@ -26,8 +26,6 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-import esper
-
 from twig_ecs.behavior import BehaviorChanged, GoalDone, GoalFailed
 from twig_ecs.character import CharacterHandle
 from twig_ecs.clock import FixedStepClock
@@ -498,7 +496,6 @@ class Server:
         if self.window is not None:
             self.window.viewer.scene = restored
         old.close()
-        restored.activate()
         return True
 
     async def step_frames(self, n: int) -> None:
@@ -539,9 +536,8 @@ class Server:
     def remove_entity(self, name: str) -> None:
         """Remove an entity; the goals of or naming it fail first ("'x' was removed")."""
         scene = self.scene
-        scene.activate()
-        removed = scene._entity_id(name)
-        for entity, _ in list(esper.get_component(Character)):
+        removed = scene.entity_id(name)
+        for entity, _ in list(self.scene.world.get_component(Character)):
             handle = scene.character_handle(entity)
             for goal in handle.goals:
                 if entity == removed or name in (goal.params.get(k) for k in ("target", "to", "on")):
@@ -559,7 +555,7 @@ class Server:
             known = self._grabs.get(entity)
             if known is None:
                 holder = scene.name_of(joint.holder) or str(joint.holder)
-                character = esper.try_component(joint.holder, Character)
+                character = self.scene.world.try_component(joint.holder, Character)
                 hands = character.holding.items() if character else ()
                 hand = next((h for h, g in hands if g == entity), None)
                 known = (holder, hand, scene.name_of(joint.held) or str(joint.held))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from twig_ecs.arguments import ArgumentError, Param, check_plain
 from twig_ecs.arguments import bind as bind_arguments
@@ -21,8 +21,30 @@ from twig_ecs.plugins import builtin_goal_schemas
 from twig_ecs.server.protocol import BROKEN_WORLD, INVALID_PARAMS, NOT_NOW, RPCError
 from twig_ecs.spawn import crowding
 
-if TYPE_CHECKING:
-    from twig_ecs.server.core import Server, Session
+
+class Server(Protocol):
+    """What the methods use of the server (:class:`twig_ecs.server.core.Server`)."""
+
+    scene: Any
+    paused: bool
+    autonomous: bool
+    sessions: Any
+    goal_owners: dict[int, Any]
+
+    @property
+    def world_status(self) -> Any: ...
+
+    def set_paused(self, paused: bool) -> None: ...
+    def remove_entity(self, name: str) -> None: ...
+    async def step_frames(self, n: int) -> None: ...
+
+
+class Session(Protocol):
+    """What the methods use of a client's session (:class:`twig_ecs.server.session.Session`)."""
+
+    authenticated: bool
+    subscriptions: Any
+
 
 #: Most frames one ``step`` call may run (60 s of simulated time).
 MAX_STEP = 3600

@@ -11,15 +11,24 @@ import hmac
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from twig_ecs.server import protocol as rpc
 from twig_ecs.server.methods import METHODS, Method, bind, find_method
 from twig_ecs.server.protocol import RPCError
 from twig_ecs.validate import suggest
 
-if TYPE_CHECKING:
-    from twig_ecs.server.core import Server
+
+class Server(Protocol):
+    """What a session uses of the server it belongs to (:class:`twig_ecs.server.core.Server`)."""
+
+    token: str | None
+    auth_timeout: float
+    scene: Any
+
+    def log(self, message: str) -> None: ...
+    def submit(self, command: Command) -> None: ...
+
 
 #: Unanswered requests one JSON-RPC client may have queued before it is no longer read.
 MAX_INFLIGHT = 64

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from twig_ecs.step import StepContext
 from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 
@@ -95,9 +96,10 @@ class IntegrateSystem(System):
 
     name = "integrate"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Integrate all nodes one step."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         n = s.nodes
-        settings = self.scene.settings
+        settings = ctx.settings
         integrate_nodes(columns(IntegrateColumns, n), n.count, settings.gravity, dt, settings.max_speed)

@@ -25,6 +25,7 @@ from twig_ecs.kernelmath import (
     forward_xz,
     yaw_error,
 )
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 TURN_RATE = 8.0  # rad/s
@@ -87,9 +88,10 @@ class GazeSystem(System):
 
     name = "gaze"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Update every character's face direction."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         ch = s.characters
         if ch.count == 0:
             return

@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from twig_ecs.kernelmath import clamp
+from twig_ecs.step import StepContext
 from twig_ecs.store import (
     LINK_GRAB,
     LINK_OFF,
@@ -692,9 +693,10 @@ class ConstrainSystem(System):
 
     name = "constrain"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Move grab joints a little towards their standoffs, then relax all constraints
         ``settings.iterations`` times."""
-        links = self.scene.state.links
+        dt = ctx.dt
+        links = ctx.state.links
         ease_grabs(links.flags, links.rest, links.min_rest, links.count, GRAB_CLOSING * dt)
-        solve_constraints(self.scene.settings.iterations, constraints_of(self.scene.state))
+        solve_constraints(ctx.settings.iterations, constraints_of(ctx.state))

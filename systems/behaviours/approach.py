@@ -14,7 +14,6 @@ import math
 import weakref
 from dataclasses import dataclass, field
 
-import esper
 import numpy as np
 from numba import njit
 
@@ -24,7 +23,7 @@ from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH, SIT, approach_field
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
-from twig_ecs.systems.collide import _cell_hash
+from twig_ecs.systems.physics.collide import _cell_hash
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
@@ -640,7 +639,7 @@ class Approach(Behavior):
             other = scene.entity(target)
             body = other.body
             first, count, tbody = body.node_start, len(body.node_names), body.index
-            other_character = esper.try_component(other.entity, Character)
+            other_character = self.world.try_component(other.entity, Character)
             if other_character is not None:
                 kind, node = 2, int(ch.nodes[other_character.index, PELVIS])
             else:
@@ -654,7 +653,7 @@ class Approach(Behavior):
         if p["direction"] is not None:
             d = np.asarray(p["direction"], dtype=np.float64) * np.array([1.0, 0.0, 1.0])
             direction = (float(d[0]), 0.0, float(d[2]), 1.0)
-        me = esper.component_for_entity(entity, Character)
+        me = self.world.component_for_entity(entity, Character)
         arms = p["arms"] if (p["arms"] != "reach" or kind != 0) else None
         return (int(ch.nodes[row, PELVIS]), int(ch.body[row]), (kind, node, first, count, tbody), point,
                 float(p["stop_distance"]), direction, bool(p["curl"]), float(me.max_speed), gaze,
@@ -714,14 +713,14 @@ class Approach(Behavior):
             if arms == "reach":
                 a["reach_nodes"] = np.array([setups[k][8] for k in picked], dtype=np.int64)
         a["reach_moving"] = [k for k, s in enumerate(setups) if s[9] == "reach" and s[8] == -2]
-        holds = [(esper.component_for_entity(e, Body).index, joint.held)
-                 for e, character in esper.get_component(Character) if character.holding
-                 for joint in (esper.try_component(g, GrabJoint) for g in character.holding.values())
+        holds = [(self.world.component_for_entity(e, Body).index, joint.held)
+                 for e, character in self.world.get_component(Character) if character.holding
+                 for joint in (self.world.try_component(g, GrabJoint) for g in character.holding.values())
                  if joint is not None]  # fmt: skip
-        holder = [b for b, held in holds if esper.has_component(held, Body)]
+        holder = [b for b, held in holds if self.world.has_component(held, Body)]
         a["grab_holder"] = np.array(holder, dtype=np.int64)
-        a["grab_held"] = np.array([esper.component_for_entity(held, Body).index for _, held in holds
-                                   if esper.has_component(held, Body)], dtype=np.int64)  # fmt: skip
+        a["grab_held"] = np.array([self.world.component_for_entity(held, Body).index for _, held in holds
+                                   if self.world.has_component(held, Body)], dtype=np.int64)  # fmt: skip
         a["skip"] = np.empty(2 + 2 * len(holder), dtype=np.int64)
         # two characters approaching each other: each copies the other's dithering (pursuit),
         # the case that squeezes (see SQUEEZE)
@@ -737,7 +736,7 @@ class Approach(Behavior):
         scene = self.scene
         state = scene.state
         if goals is None:
-            goals = [esper.component_for_entity(e, Mind).goal for e in entities]
+            goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
         packed = self.__dict__.get("_packed")
         if packed is None:
             packed = self._packed = _Batch()
@@ -796,7 +795,7 @@ class Approach(Behavior):
                 else:  # CHECK: a walk vector it cannot do - the handle says why
                     character.walk(ch.walk[row].copy())
         for entity, goal in packed.fallback:
-            self.act(scene.character_handle(entity), esper.component_for_entity(entity, Mind), goal, dt)
+            self.act(scene.character_handle(entity), self.world.component_for_entity(entity, Mind), goal, dt)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Stand still, arms down, looking ahead."""

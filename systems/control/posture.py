@@ -46,9 +46,10 @@ from twig_ecs.kernelmath import (
     walk_speed,
     yaw_error,
 )
+from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED, columns
 from twig_ecs.system import System
-from twig_ecs.systems.gait import LEAD, WALK_HEIGHT, step_timing
+from twig_ecs.systems.control.gait import LEAD, WALK_HEIGHT, step_timing
 
 HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
@@ -344,11 +345,12 @@ class PostureSystem(System):
 
     name = "posture"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Add this step's posture accelerations."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        g = self.scene.settings.gravity
+        g = ctx.settings.gravity
         control_posture(columns(PostureColumns, n, ch), ch.count, g, dt)

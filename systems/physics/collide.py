@@ -19,9 +19,10 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
-from twig_ecs.systems.constrain import (
+from twig_ecs.systems.physics.constrain import (
     SETTLE_PASSES,
     NodeColumns,
     constraints_of,
@@ -519,9 +520,9 @@ def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
 @njit(cache=True, nogil=True)
 def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held):
     """Relaxation rounds of contacts (``contacts``: :func:`contacts_of`) then all other
-    constraints (``constraints``: :func:`~twig_ecs.systems.constrain.constraints_of`), then
+    constraints (``constraints``: :func:`~twig_ecs.systems.physics.constrain.constraints_of`), then
     the shapes of the loose things hands hold (``held``: ``state.held``, see
-    :func:`~twig_ecs.systems.constrain.settle_shape`); returns the residual penetration."""
+    :func:`~twig_ecs.systems.physics.constrain.settle_shape`); returns the residual penetration."""
     cols = ContactColumns(*contacts)
     c = named_constraints(constraints)
     nodes = c.nodes
@@ -630,15 +631,16 @@ class CollideSystem(System):
             n_pairs = collider_pairs(*args, s.pairs)
         return n_pairs
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Broad phase once, then ``settings.iterations`` contact relaxation rounds."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         col = s.colliders
         if col.count < 2:
             s.stats[0] = 0.0
         else:
             n_pairs = self.broad_phase()
-            iterations = self.scene.settings.iterations
+            iterations = ctx.settings.iterations
             s.stats[0] = solve_collisions(contacts_of(s), s.pairs, n_pairs, iterations, dt, constraints_of(s),
                                           s.held)  # fmt: skip
             s.n_pairs = n_pairs

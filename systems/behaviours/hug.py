@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 
-import esper
 import numpy as np
 from numba import njit
 
@@ -48,9 +47,8 @@ from twig_ecs.kernelmath import (
 )
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
-from twig_ecs.systems.approach import steer_to
-from twig_ecs.systems.collide import segment_gap2
-from twig_ecs.systems.embrace import (  # (importing it registers the partner's answer to a hug)
+from twig_ecs.systems.behaviours.approach import steer_to
+from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the partner's answer to a hug)
     HOLD,
     PHASES,
     STAND_UP,
@@ -59,6 +57,7 @@ from twig_ecs.systems.embrace import (  # (importing it registers the partner's 
     glide_hand,
     lower_hands,
 )
+from twig_ecs.systems.physics.collide import segment_gap2
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
@@ -266,7 +265,7 @@ class Hug(Behavior):
         """Walk up (per character), then wrap and hold for every hugger at once."""
         scene = self.scene
         if goals is None:
-            goals = [esper.component_for_entity(e, Mind).goal for e in entities]
+            goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
         close = []
         for row, entity, goal in zip(rows, entities, goals, strict=True):
             if goal is None:
@@ -285,7 +284,7 @@ class Hug(Behavior):
             self.finish(character, goal, False, f"'{target}' is gone")
             return None
         other = character.scene.entity(target)
-        if esper.try_component(other.entity, Character) is None:
+        if self.world.try_component(other.entity, Character) is None:
             self.finish(character, goal, False, f"'{target}' is not a character: there is no one to hug back")
             return None
         return other
@@ -330,7 +329,7 @@ class Hug(Behavior):
             at = body.node_index(name)
             touching = rows[(links.a[rows] == at) | (links.b[rows] == at)]
             surface.append(float(links.radius[touching].max()) if len(touching) else 0.0)
-        return esper.component_for_entity(other.entity, Character).index, tuple(surface), torso
+        return self.world.component_for_entity(other.entity, Character).index, tuple(surface), torso
 
     def _pack(self, key: tuple, close: list) -> tuple[dict, list]:
         """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change),

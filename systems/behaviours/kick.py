@@ -2,7 +2,7 @@
 
 A kick is a rare event (a behaviour decides on one now and then), so it is plain Python
 on one character: the kicking foot is unlocked and sent, like a step of
-:mod:`twig_ecs.systems.gait`, on an arc under gravity that ends at a point beyond the
+:mod:`twig_ecs.systems.control.gait`, on an arc under gravity that ends at a point beyond the
 ball; the foot's step timer (``swing`` in the character table) runs for the kick's
 duration, so the gait neither plants that foot nor starts another step until it is over,
 and the foot locks again where it lands. The ball moves only because the leg's capsules

@@ -41,6 +41,7 @@ from twig_ecs.kernelmath import (
     swing_share,
     walk_speed,
 )
+from twig_ecs.step import StepContext
 from twig_ecs.store import (
     MOVE_GAIT_ARC,
     NODE_IN_CONTACT,
@@ -226,7 +227,7 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
     hz = pos[h, 2] + (pos[p, 2] - prev[p, 2]) / dt * t
     hh = pos[h, 1] - ly
     if aim and o >= 0:
-        # the hip then rides the planted leg's arc (systems/posture.py): WALK_HEIGHT leg
+        # the hip then rides the planted leg's arc (systems/control/posture.py): WALK_HEIGHT leg
         # lengths from that foot - lower than now if it will have passed over it
         ho = nd[L_HIP + 1 - f]
         qx = pos[ho, 0] + (pos[p, 0] - prev[p, 0]) / dt * t - pos[o, 0]
@@ -442,13 +443,14 @@ class GaitSystem(System):
 
     name = "gait"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Plant, unlock and launch feet for this step."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
-        g = self.scene.settings.gravity
+        g = ctx.settings.gravity
         args = columns(GaitColumns, n, ch)
         control_gait(args, ch.count, g, dt)
 

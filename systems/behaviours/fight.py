@@ -9,12 +9,12 @@ fighter (:class:`Defend`).
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
 from twig_ecs.components import Character, Feisty, LastFight
 from twig_ecs.steering import ground_distance
+from twig_ecs.step import StepContext
 
 COOLDOWN = 25.0  # s between fights
 FIGHT_TIME = 3.0  # s of grappling
@@ -31,11 +31,12 @@ class Fight(Behavior):
     name = "fight"
     component = Feisty
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Maybe start fights (as grapple goals); this behaviour never acts itself."""
+        dt = ctx.dt
         scene = self.scene
-        for entity, (_, feisty) in esper.get_components(Character, Feisty):
-            last = esper.try_component(entity, LastFight)
+        for entity, (_, feisty) in ctx.world.get_components(Character, Feisty):
+            last = ctx.world.try_component(entity, LastFight)
             cooling = last is not None and scene.time - last.at < COOLDOWN
             if not scene.has_entity(feisty.rival) or cooling:
                 continue
@@ -48,7 +49,7 @@ class Fight(Behavior):
             if any(g.behavior == "hug" for g in getattr(rival, "goals", ())):
                 continue  # not while it runs to (or hugs) its grown-up
             if scene.rng.random() < feisty.temper * dt:
-                esper.add_component(entity, LastFight(scene.time))
+                ctx.world.add_component(entity, LastFight(scene.time))
                 feisty.fights += 1
                 me.grapple(feisty.rival, duration=FIGHT_TIME)
 
@@ -77,8 +78,8 @@ class Defend(Behavior):
     def candidates(self) -> list[tuple[int, Mind]]:
         """Only the characters someone is fighting."""
         self.attacked_by = attackers_of(self.scene)
-        return [(e, esper.component_for_entity(e, Mind)) for e in self.attacked_by
-                if esper.entity_exists(e) and esper.has_component(e, Mind)]  # fmt: skip
+        return [(e, self.world.component_for_entity(e, Mind)) for e in self.attacked_by
+                if self.world.entity_exists(e) and self.world.has_component(e, Mind)]  # fmt: skip
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while the fighter is near."""

@@ -12,7 +12,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GESTURES
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.steering import ground_distance
-from twig_ecs.systems.approach import steer_to
+from twig_ecs.systems.behaviours.approach import steer_to
 
 SEATED = 0.08  # m: pelvis this close to the seat height counts as seated
 STOOD = 0.05  # fraction of standing height

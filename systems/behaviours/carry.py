@@ -10,7 +10,6 @@ commanded) keeps a carried thing up in front of the body whenever its hand is no
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -20,8 +19,9 @@ from twig_ecs.errors import TwigError
 from twig_ecs.goals import GoalSchema, Param, metres, speed
 from twig_ecs.kernelmath import HANG
 from twig_ecs.steering import ground_distance
+from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED
-from twig_ecs.systems.approach import steer_to, target_point
+from twig_ecs.systems.behaviours.approach import steer_to, target_point
 
 FETCH_TIME = 4.0  # s to get a hand on it once there
 
@@ -148,11 +148,11 @@ class Cradle(Behavior):
 
     name = "cradle"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Put every hanging hand that holds a loose thing in the carry pose."""
         scene = self.scene
         modes = scene.state.characters.arm_mode
-        for entity, (character, _) in esper.get_components(Character, Mind):
+        for entity, (character, _) in ctx.world.get_components(Character, Mind):
             if not character.holding:
                 continue
             me = scene.character_handle(entity)

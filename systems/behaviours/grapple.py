@@ -16,7 +16,7 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.steering import ground_distance
-from twig_ecs.systems.approach import steer_to
+from twig_ecs.systems.behaviours.approach import steer_to
 
 ARMS_LENGTH = 0.55  # m (at 1.75 m tall): where the fight starts
 PUNCH = 0.5  # s per blow or shove

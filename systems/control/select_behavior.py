@@ -1,7 +1,7 @@
 """select_behavior: each character's highest activation wins and acts (SPEC 4).
 
 Reads the activations the behaviour systems proposed this step (on each character's
-:class:`~twig_ecs.behavior.Mind`); writes the winner and calls its ``act``, which sets
+:class:`~twig_ecs.mind.Mind`); writes the winner and calls its ``act``, which sets
 the character's controller targets. Switching is stable: the current winner gets a
 bonus (``STICKINESS``) and keeps the floor for at least ``MIN_DWELL`` seconds unless
 a rival beats it by ``URGENT`` (a reflex such as pain withdrawal), so two behaviours
@@ -10,10 +10,9 @@ with near-equal activations cannot trade places every frame.
 
 from __future__ import annotations
 
-import esper
-
-from twig_ecs.behavior import BehaviorChanged, Mind
 from twig_ecs.components import Character
+from twig_ecs.mind import BehaviorChanged, Mind
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 STICKINESS = 0.05  # activation bonus of the current winner
@@ -27,13 +26,14 @@ class SelectBehaviorSystem(System):
 
     name = "select_behavior"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Select, switch (with hysteresis) and act, for every character."""
+        dt = ctx.dt
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
         batches: dict[str, tuple[list[int], list[int], list]] = {}
-        for entity, (character, mind) in esper.get_components(Character, Mind):
+        for entity, (character, mind) in ctx.world.get_components(Character, Mind):
             proposals = mind.activations
             was = mind.winner
             if len(proposals) == 1 and proposals.get(was, -1.0) >= IDLE:

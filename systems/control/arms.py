@@ -33,6 +33,7 @@ from twig_ecs.kernelmath import (
     clamp,
     forward_xz,
 )
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 HAND_GAIN, HAND_DAMP = 150.0, 24.0  # 1/s^2, 1/s
@@ -144,11 +145,12 @@ class ArmsSystem(System):
 
     name = "arms"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Add this step's arm accelerations."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         ch, n = s.characters, s.nodes
         if ch.count == 0:
             return
         control_arms(n.pos, n.prev, n.acc, ch.nodes, ch.arm_mode, ch.arm_point, ch.arm_node, ch.gesture_phase,
-                     ch.count, self.scene.settings.gravity, dt)  # fmt: skip
+                     ch.count, ctx.settings.gravity, dt)  # fmt: skip

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 
-import esper
 import numpy as np
 from numba import njit
 
@@ -39,6 +38,7 @@ from twig_ecs.kernelmath import (
     clamp,
     forward_xz,
 )
+from twig_ecs.step import StepContext
 
 EMBRACE = 0.9  # activation: above goals (0.8), below pain withdrawal
 NEAR = 1.0  # m (ground) between the two for a hug to be answered
@@ -165,11 +165,11 @@ def holding_hands(scene, entities) -> np.ndarray:
     """(n, 2) bools: which hands of each of ``entities`` hold nothing (left, right). Found
     from the scene's grab joints, which are few, rather than a look-up per character."""
     free = np.ones((len(entities), 2), dtype=np.bool_)
-    holders = {joint.holder for _, joint in esper.get_component(GrabJoint)}
+    holders = {joint.holder for _, joint in scene.world.get_component(GrabJoint)}
     if holders:
         for k, entity in enumerate(entities):
             if entity in holders:
-                holding = esper.component_for_entity(entity, Character).holding
+                holding = scene.world.component_for_entity(entity, Character).holding
                 free[k] = ("left" not in holding, "right" not in holding)
     return free
 
@@ -204,24 +204,24 @@ class Embrace(Behavior):
             return
         pairs = []
         for hugged, (hugger, goal) in goal_targets(scene, "hug").items():
-            if not (esper.entity_exists(hugged) and esper.has_component(hugged, Mind)):
+            if not (self.world.entity_exists(hugged) and self.world.has_component(hugged, Mind)):
                 continue
-            me = esper.try_component(hugged, Character)
-            them = esper.try_component(hugger, Character)
+            me = self.world.try_component(hugged, Character)
+            them = self.world.try_component(hugger, Character)
             if me is None or them is None:
                 continue
-            mind = esper.component_for_entity(hugged, Mind)
+            mind = self.world.component_for_entity(hugged, Mind)
             pairs.append((hugged, mind, me.index, hugger, them.index, goal))
         self._pairs, self._pairs_key = pairs, key
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
         self._refresh_pairs()
         pairs = self._pairs
         self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs}
         if not pairs:
             return
-        pos, nodes = self.scene.state.nodes.pos, self.scene.state.characters.nodes
+        pos, nodes = ctx.state.nodes.pos, ctx.state.characters.nodes
         mine = pos[nodes[[p[2] for p in pairs], PELVIS]]
         theirs = pos[nodes[[p[4] for p in pairs], PELVIS]]
         far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])

@@ -12,6 +12,7 @@ import math
 from numba import njit
 
 from twig_ecs.kernelmath import PELVIS, clamp
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 REST_HZ = 0.25  # breaths per second at rest
@@ -44,9 +45,10 @@ class RespirationSystem(System):
 
     name = "respiration"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Advance every character's breathing."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         ch = s.characters
         if ch.count == 0:
             return

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 
-import esper
 import numpy as np
 from numba import njit
 
@@ -25,7 +24,8 @@ from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Character, Wander
 from twig_ecs.kernelmath import PELVIS, approach_field
 from twig_ecs.steering import SteeringParams
-from twig_ecs.systems.approach import STEP_OVER
+from twig_ecs.step import StepContext
+from twig_ecs.systems.behaviours.approach import STEP_OVER
 
 #: Headway (m) that resets the patience clock, as in approach's stall test.
 HEADWAY = 0.1
@@ -141,9 +141,9 @@ class WanderBehavior(Behavior):
             self._scratch[key] = buf
         return buf
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Propose ``activation`` for every autonomous wandering character."""
-        for _, (_, mind, wander) in esper.get_components(Character, Mind, Wander):
+        for _, (_, mind, wander) in ctx.world.get_components(Character, Mind, Wander):
             if mind.autonomous:
                 mind.activations["wander"] = wander.activation
 
@@ -160,7 +160,7 @@ class WanderBehavior(Behavior):
         # per-character parameters: cached by the list of winners (they rarely change)
         key = tuple(entities)
         if self._scratch.get("key") != key:
-            comps = [esper.component_for_entity(e, Wander) for e in entities]
+            comps = [self.world.component_for_entity(e, Wander) for e in entities]
             arrive[:] = [w.arrive for w in comps]
             patience[:] = [w.patience for w in comps]
             self._scratch["key"] = key
@@ -183,7 +183,7 @@ class WanderBehavior(Behavior):
 
     def _draw_target(self, entity: int, row: int) -> None:
         """A new random target in the character's square (a rare, per-character event)."""
-        wander = esper.component_for_entity(entity, Wander)
+        wander = self.world.component_for_entity(entity, Wander)
         ch = self.scene.state.characters
         x, z = self.scene.rng.uniform(-wander.radius, wander.radius, 2)
         ch.steer_goal[row] = (wander.centre[0] + x, wander.centre[1] + z)

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import math
 
-import esper
 import numpy as np
 from numba import njit
 
 from twig_ecs.components import Body
 from twig_ecs.events import Contact, Pain
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 
@@ -52,9 +52,10 @@ class SenseSystem(System):
 
     name = "sense"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Update pain; emit events for impacts above the contact threshold."""
-        s = self.scene.state
+        dt = ctx.dt
+        s = ctx.state
         col, bodies = s.colliders, s.bodies
         feel_impacts(
             col.hit_energy,
@@ -70,7 +71,7 @@ class SenseSystem(System):
             s.gentle,
         )
         # Events are rare (only real impacts), so building them in Python is cheap.
-        struck = np.flatnonzero(col.hit_energy[: col.count] >= self.scene.settings.contact_energy)
+        struck = np.flatnonzero(col.hit_energy[: col.count] >= ctx.settings.contact_energy)
         for c in struck:
             other = int(col.hit_by[c])
             b, ob = int(col.body[c]), int(col.body[other])
@@ -81,15 +82,15 @@ class SenseSystem(System):
             part, other_part = self._part(c, body_e), self._part(other, other_e)
             # one contact event per pair: the side with the lower index reports it
             if c < other or int(col.hit_by[other]) != c:
-                self.scene.emit(Contact(body_e, part, other_e, other_part, energy))
+                ctx.emit(Contact(body_e, part, other_e, other_part, energy))
             if energy >= bodies.pain_threshold[b] and not is_gentle(s.gentle, b, ob):
                 level = float(bodies.pain[b])
-                self.scene.emit(Pain(body_e, part, other_e, energy, level))
+                ctx.emit(Pain(body_e, part, other_e, energy, level))
 
     def _part(self, c: int, body_entity: int) -> str:
         """The name of collider ``c`` on its body: its link's "a-b", or a sphere's node name."""
         s = self.scene.state
-        body = esper.component_for_entity(body_entity, Body)
+        body = self.world.component_for_entity(body_entity, Body)
         link = int(s.colliders.link[c])
         if link >= 0:
             return body.link_name(link, s.links)

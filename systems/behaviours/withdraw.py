@@ -9,11 +9,11 @@ interrupted goal carries on.
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Character, Withdrawing
+from twig_ecs.step import StepContext
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
@@ -29,11 +29,11 @@ class Withdraw(Behavior):
     name = "withdraw"
     reflex = True
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Start retreats for this step's blows, then propose activations."""
         scene = self.scene
         for event in scene.events:
-            if event.kind != "pain" or not esper.has_component(event.body, Character):
+            if event.kind != "pain" or not ctx.world.has_component(event.body, Character):
                 continue
             me = scene.character_handle(event.body)
             other = scene.name_of(event.source_body)
@@ -43,24 +43,25 @@ class Withdraw(Behavior):
             away = away / norm if norm > 1e-6 else -me.facing
             now = scene.time
             # a new blow restarts the retreat (the component, if one is under way, is renewed)
-            esper.add_component(event.body, Withdrawing(now + DURATION + TURN_AWAY, now + DURATION, away,
+            ctx.world.add_component(event.body, Withdrawing(now + DURATION + TURN_AWAY, now + DURATION, away,
                                                         event.source_body))  # fmt: skip
-        super().process(dt)
+        super().run(ctx)
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """Only the characters whose retreat is still running (not every character)."""
         now = self.scene.time
-        return [(e, esper.component_for_entity(e, Mind)) for e, retreat in esper.get_component(Withdrawing)
-                if retreat.until > now and esper.has_component(e, Mind)]  # fmt: skip
+        world = self.world
+        return [(e, world.component_for_entity(e, Mind)) for e, retreat in world.get_component(Withdrawing)
+                if retreat.until > now and world.has_component(e, Mind)]  # fmt: skip
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while a retreat is running."""
-        retreat = esper.try_component(character.entity, Withdrawing)
+        retreat = self.world.try_component(character.entity, Withdrawing)
         return ACTIVATION if retreat is not None and retreat.until > self.scene.time else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Back off, arms up, watching the source; then turn away and walk off."""
-        retreat = esper.component_for_entity(character.entity, Withdrawing)
+        retreat = self.world.component_for_entity(character.entity, Withdrawing)
         away = retreat.away
         if retreat.stagger_until > self.scene.time:
             character.walk(away * SPEED * character.scale**0.5)
@@ -75,9 +76,9 @@ class Withdraw(Behavior):
 
     def stop(self, character, goal) -> None:
         """Stand, arms down; the retreat, if over, is forgotten."""
-        retreat = esper.try_component(character.entity, Withdrawing)
+        retreat = self.world.try_component(character.entity, Withdrawing)
         if retreat is not None and retreat.until <= self.scene.time:
-            esper.remove_component(character.entity, Withdrawing)
+            self.world.remove_component(character.entity, Withdrawing)
         character.stop()
         character.pose("hang")
         character.look_at(None)

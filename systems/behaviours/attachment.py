@@ -12,12 +12,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import esper
-
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import CharacterHandle
 from twig_ecs.components import Attachment, Character, Glance
 from twig_ecs.steering import ground_distance
+from twig_ecs.step import StepContext
 
 GLANCE = 1.0  # s a look back lasts
 GLANCE_EVERY = 5.0  # s at least between look-backs
@@ -46,10 +45,11 @@ class AttachmentBehavior(Behavior):
     name = "attachment"
     component = Attachment
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Update every attached child's anxiety, then propose."""
+        dt = ctx.dt
         scene = self.scene
-        for entity, (_, attachment) in esper.get_components(Character, Attachment):
+        for entity, (_, attachment) in ctx.world.get_components(Character, Attachment):
             me = scene.character_handle(entity)
             caregiver = self._caregiver(attachment)
             if caregiver is None:
@@ -62,7 +62,7 @@ class AttachmentBehavior(Behavior):
             else:
                 attachment.anxiety -= dt * attachment.fade
             attachment.anxiety = min(1.0, max(0.0, attachment.anxiety))
-        super().process(dt)
+        super().run(ctx)
 
     def _caregiver(self, attachment: Attachment) -> CharacterHandle | None:
         """The caregiver's handle; None while there is no character of that name (removed, or
@@ -83,7 +83,7 @@ class AttachmentBehavior(Behavior):
         if attachment.anxiety >= attachment.return_at:
             return RUN_HOME
         now = self.scene.time
-        glance = esper.try_component(character.entity, Glance) or Glance()
+        glance = self.world.try_component(character.entity, Glance) or Glance()
         if glance.until > now:
             return LOOK_BACK
         if attachment.anxiety >= attachment.look_back_at and now - glance.last > GLANCE_EVERY:
@@ -95,7 +95,7 @@ class AttachmentBehavior(Behavior):
         attachment = self.settings(character)
         if attachment.anxiety < attachment.return_at:
             now = self.scene.time
-            esper.add_component(character.entity, Glance(until=now + GLANCE, last=now))
+            self.world.add_component(character.entity, Glance(until=now + GLANCE, last=now))
             attachment.look_backs += 1
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
@@ -114,6 +114,6 @@ class AttachmentBehavior(Behavior):
 
     @staticmethod
     def _end_glance(character) -> None:
-        glance = esper.try_component(character.entity, Glance)
+        glance = character.world.try_component(character.entity, Glance)
         if glance is not None:
             glance.until = -1.0

@@ -5,21 +5,20 @@ joy, damped by its anxiety if it has an attachment. Winning, it picks a place to
 the toy (inside the yard, if the scene has fences round it: see :func:`yard_of`), runs
 round to the far side of the toy from there, slows as it comes up behind it and swings
 the foot that stands behind the toy through it on a ballistic arc
-(:func:`twig_ecs.systems.kick.launch_kick`). The toy moves only because the leg's
+(:func:`twig_ecs.systems.behaviours.kick.launch_kick`). The toy moves only because the leg's
 capsules hit it; a kick that misses leaves it lying, and the child lines up again.
 """
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Attachment, Kicking, Playful, ToyHome
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import NODE_LOCKED
-from twig_ecs.systems.approach import obstacles_near
-from twig_ecs.systems.kick import FEET, foot_busy, launch_kick
+from twig_ecs.systems.behaviours.approach import obstacles_near
+from twig_ecs.systems.behaviours.kick import FEET, foot_busy, launch_kick
 
 BEHIND = 0.6  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks
 LINE_UP = 0.35  # m (at 1.75 m tall): how near that spot it must be to kick
@@ -105,7 +104,7 @@ class Play(Behavior):
         playful = self.settings(character)
         if not self.scene.has_entity(playful.toy):
             return 0.0
-        attachment = esper.try_component(character.entity, Attachment)
+        attachment = self.world.try_component(character.entity, Attachment)
         anxiety = attachment.anxiety if attachment is not None else 0.0
         return playful.joy * (1.0 - 0.5 * anxiety)
 
@@ -141,10 +140,10 @@ class Play(Behavior):
             x, z = rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])
         else:
             toy = self.scene.entity(toy_name).entity
-            home = esper.try_component(toy, ToyHome)
+            home = self.world.try_component(toy, ToyHome)
             if home is None:
                 home = ToyHome(toy_at.copy())
-                esper.add_component(toy, home)
+                self.world.add_component(toy, home)
             home = home.at
             angle, r = rng.uniform(0.0, 2.0 * np.pi), OPEN_FIELD * np.sqrt(rng.uniform())
             x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
@@ -157,11 +156,11 @@ class Play(Behavior):
         now = self.scene.time
         scale = character.scale
         ball = toy.position
-        game = esper.try_component(character.entity, Kicking)
+        game = self.world.try_component(character.entity, Kicking)
         stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
         if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
             game = Kicking(self._target(playful.toy, ball), chosen_at=now)
-            esper.add_component(character.entity, game)
+            self.world.add_component(character.entity, game)
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
             game.counted = True

@@ -8,12 +8,12 @@ walkers in a scene, not crowds (behaviours do the real steering).
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
-from twig_ecs.behavior import Mind
 from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS
+from twig_ecs.mind import Mind
+from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 ARRIVED = 0.35  # m from a waypoint counts as there
@@ -24,13 +24,13 @@ class PatrolSystem(System):
 
     name = "patrol"
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Point each patrolling character's walk vector at its next waypoint."""
-        ch, pos = self.scene.state.characters, self.scene.state.nodes.pos
-        for entity, character in esper.get_component(Character):
+        ch, pos = ctx.state.characters, ctx.state.nodes.pos
+        for entity, character in ctx.world.get_component(Character):
             if not character.route:
                 continue
-            mind = esper.try_component(entity, Mind)
+            mind = ctx.world.try_component(entity, Mind)
             if mind is not None and (mind.winner != "idle" or not mind.autonomous):
                 continue  # a behaviour is in charge, or the character is scripted: it waits
             row = character.index

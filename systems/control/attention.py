@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import math
 
-import esper
 import numpy as np
 
 from twig_ecs.components import Attachment, Body, Character, Memory, Perception
 from twig_ecs.kernelmath import GAZE_NODE, HEAD
+from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.system import System
 
@@ -38,7 +38,8 @@ class AttentionSystem(System):
 
     def _refresh(self) -> None:
         state, scene = self.scene.state, self.scene
-        key = (state.version, len(scene._names))  # bodies spawned or removed
+        names = scene.entity_names
+        key = (state.version, len(names))  # bodies spawned or removed
         if key == self._key:
             return
         bodies, nodes = state.bodies, state.nodes
@@ -47,11 +48,11 @@ class AttentionSystem(System):
         free = np.bincount(nodes.body[: nodes.count], (nodes.flags[: nodes.count] & NODE_LOCKED) == 0,
                            bodies.count)  # fmt: skip
         row_of = {int(bodies.entity[b]): b for b in range(bodies.count) if free[b] > 0}
-        self._rows = [(name, row_of[scene._names[name]]) for name in scene.entity_names
-                      if scene._names[name] in row_of]  # fmt: skip
+        entities = [(name, scene.entity_id(name)) for name in names]
+        self._rows = [(name, row_of[entity]) for name, entity in entities if entity in row_of]
         self._head_nodes = {}
-        for name in scene.entity_names:
-            body = esper.try_component(scene._names[name], Body)
+        for name, entity in entities:
+            body = self.world.try_component(entity, Body)
             if body is not None and "head" in body.node_names:
                 self._head_nodes[name] = body.node_index("head")
         self._key = key
@@ -66,10 +67,11 @@ class AttentionSystem(System):
         self._refresh()
         return self._head_nodes
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Perceive, fade, appraise and pick a focus for every perceiving character."""
+        dt = ctx.dt
         scene = self.scene
-        perceivers = esper.get_components(Character, Perception, Memory)
+        perceivers = ctx.world.get_components(Character, Perception, Memory)
         if not perceivers:
             return
         state = scene.state
@@ -103,7 +105,7 @@ class AttentionSystem(System):
             cos_half = math.cos(math.radians(perception.view_angle / 2))
             decay = fade ** (1.0 / perception.memory_half_life)
             anxiety = 0.0
-            attachment = esper.try_component(entity, Attachment)
+            attachment = ctx.world.try_component(entity, Attachment)
             if attachment is not None:
                 anxiety = attachment.anxiety
             for name, where in centres.items():

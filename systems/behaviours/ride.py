@@ -12,7 +12,6 @@ to the merry-go-round by the behaviour).
 
 from __future__ import annotations
 
-import esper
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
@@ -20,7 +19,8 @@ from twig_ecs.character import GRAB_REACH
 from twig_ecs.components import Character, Rider, Spin
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
-from twig_ecs.systems.approach import obstacles_near
+from twig_ecs.step import StepContext
+from twig_ecs.systems.behaviours.approach import obstacles_near
 
 PUSH_TIME = 3.0  # s of running round holding on
 WANT = 0.65  # activation while it wants a spin: above play
@@ -44,24 +44,25 @@ class Ride(Behavior):
     name = "ride"
     component = Rider
 
-    def process(self, dt: float) -> None:
+    def run(self, ctx: StepContext) -> None:
         """Maybe get the urge; then propose."""
+        dt = ctx.dt
         scene = self.scene
-        for entity, (_, rider) in esper.get_components(Character, Rider):
-            if not esper.has_component(entity, Spin) and scene.has_entity(rider.ride):
+        for entity, (_, rider) in ctx.world.get_components(Character, Rider):
+            if not ctx.world.has_component(entity, Spin) and scene.has_entity(rider.ride):
                 if scene.rng.random() < rider.whim * dt:
-                    esper.add_component(entity, Spin(since=scene.time))
-        super().process(dt)
+                    ctx.world.add_component(entity, Spin(since=scene.time))
+        super().run(ctx)
 
     def activation(self, character, mind: Mind, goal) -> float:
         """High while the urge lasts."""
-        return WANT if esper.has_component(character.entity, Spin) else 0.0
+        return WANT if self.world.has_component(character.entity, Spin) else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Go to the rim, take hold, run round."""
         rider = self.settings(character)
         ride = self.scene.entity(rider.ride)
-        spin = esper.component_for_entity(character.entity, Spin)
+        spin = self.world.component_for_entity(character.entity, Spin)
         now = self.scene.time
         scale = character.scale
         pos = ride.node_positions
@@ -172,8 +173,8 @@ class Ride(Behavior):
         spin.phase, spin.phase_since = "leave", now
 
     def _done(self, character) -> None:
-        if esper.has_component(character.entity, Spin):
-            esper.remove_component(character.entity, Spin)
+        if self.world.has_component(character.entity, Spin):
+            self.world.remove_component(character.entity, Spin)
         self._let_go(character)
 
     def _let_go(self, character) -> None:
@@ -186,7 +187,7 @@ class Ride(Behavior):
     def stop(self, character, goal) -> None:
         """Let go of the bar, stop (an interrupted go starts again from walking there)."""
         self._let_go(character)
-        spin = esper.try_component(character.entity, Spin)
+        spin = self.world.try_component(character.entity, Spin)
         if spin is not None:
             spin.phase = "go"
         character.stop()

@@ -1,0 +1,1 @@
+"""Point-mass physics: Verlet integration, constraint projection, collisions, the sense of impact."""
