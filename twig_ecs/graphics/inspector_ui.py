@@ -111,7 +111,7 @@ class History:
             mind = getattr(handle, "mind", None)
             if mind is None:
                 continue
-            attachment = self.scene.world.try_component(handle.entity, Attachment)
+            attachment = scene.world.try_component(handle.entity, Attachment)
             anxiety = attachment.anxiety if attachment is not None else 0.0
             row = (now, anxiety, handle.pain, dict(mind.last))
             self.samples.setdefault(name, deque(maxlen=keep)).append(row)
