@@ -1,4 +1,4 @@
-"""The Python examples in the README and docs/ run as written.
+"""The Python examples in the README, ARCHITECTURE.md and docs/ run as written.
 
 Each file's ```python blocks run in order in one namespace (a later block may use what
 an earlier one made, as a reader would). Blocks that talk to a server get one: the
@@ -18,7 +18,7 @@ from server_helpers import running_server
 from twig_ecs import Scene
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+DOCS = [ROOT / "README.md", ROOT / "ARCHITECTURE.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"```python\n(.*?)```", re.S)
 
 
@@ -33,7 +33,7 @@ DOCS_WITH_SNIPPETS = [p for p in DOCS if snippets(p)]
 
 def test_the_readme_and_the_guides_have_python_examples():
     names = {p.name for p in DOCS_WITH_SNIPPETS}
-    assert {"README.md", "authoring-behaviours.md", "characters.md", "server.md"} <= names
+    assert {"README.md", "ARCHITECTURE.md", "authoring-behaviours.md", "characters.md", "server.md"} <= names
 
 
 @pytest.mark.slow  # the README and server.md ones wait for hugs in real time
