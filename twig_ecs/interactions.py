@@ -197,9 +197,10 @@ class InteractionRecorder:
             gap = min(gap_now, self._leg_gap[name])
             if speed - self._speed[name] > SPEED_UP:
                 self._add(self.kicks[name], gap, by)
-                if gap <= TOUCH_GAP and by and scene.time - self._kick_moment[name] >= MERGE:
-                    self._moment("kick", by, name)
-                self._kick_moment[name] = scene.time if gap <= TOUCH_GAP else self._kick_moment[name]
+                if gap <= TOUCH_GAP:  # a leg touched it: a kick, unless it goes on the last one
+                    if by and scene.time - self._kick_moment[name] >= MERGE:
+                        self._moment("kick", by, name)
+                    self._kick_moment[name] = scene.time
             self._speed[name], self._leg_gap[name] = speed, gap_now
         for name, (row, links) in self.rides.items():
             spin = float(np.linalg.norm(pos[row] - prev[row])) / dt / float(st.nodes.axle_radius[row])
@@ -302,8 +303,8 @@ class InteractionRecorder:
             figures.frames += 1
             both = hands_on_back(me, partner) == 2
             answered = hasattr(partner, "holding") and hands_on_back(partner, me) >= 1
-            figures.both_arms += both
-            figures.partner_hand += answered
+            figures.both_arms += int(both)
+            figures.partner_hand += int(answered)
             if both and (answered or not hasattr(partner, "holding")) and goal.id not in self._hug_shown:
                 self._hug_shown.add(goal.id)
                 self._moment("hug", me.name, partner.name)
