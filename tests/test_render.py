@@ -9,8 +9,10 @@ from PIL import Image
 from twig_ecs import Scene
 from twig_ecs.cli import main
 from twig_ecs.graphics.camera import CameraError, CameraSpec
+from twig_ecs.graphics.closeup import MomentSpec, closeup_camera, find_moment
 from twig_ecs.graphics.offscreen import OffscreenRenderer, parse_size, render_scene
 from twig_ecs.graphics.renderer import build_tables, face_frames
+from twig_ecs.systems.play import yard_of
 
 SIZE = (320, 180)
 
@@ -160,3 +162,65 @@ def test_a_gif_keeps_the_colours_of_the_bodies(tmp_path):
         want, got = coloured(still), coloured(clip)
     assert want.sum() > 100, "the frame shows coloured bodies"
     assert (want & got).sum() > 0.6 * want.sum()
+
+
+@pytest.mark.parametrize(
+    ("at", "extra", "message"),
+    [
+        ("dance", [], "unknown moment 'dance'"),
+        ("hug:0", [], "not a count from 1"),
+        ("kick", ["--seconds", "3"], "shows the moment itself"),
+        ("hug", ["--within", "3"], "has 0 hug moments in its first 3 s"),
+    ],
+)
+def test_twig_render_at_explains_a_moment_it_cannot_show(at, extra, message, tmp_path, capsys):
+    argv = ["render", "schoolyard", "--at", at, "--size", "160x90", "-o", str(tmp_path / "x.png"), *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_moment_not_found_lists_the_moments_that_were(tmp_path, capsys):
+    argv = ["render", "schoolyard", "--at", "push", "--within", "3", "-o", str(tmp_path / "x.png")]
+    assert main(argv) == 2
+    assert "moments seen: kick x1" in capsys.readouterr().err  # the big child kicks at 2.3 s
+
+
+def test_the_first_kick_is_the_step_a_leg_meets_the_speeding_ball(scenes):
+    schoolyard = Scene.load("schoolyard")
+    scenes.append(schoolyard)
+    moment = find_moment(schoolyard, MomentSpec.parse("kick"), within=10.0)
+    assert moment.names == ("big_child", "ball")
+    assert schoolyard.frame == moment.frame and schoolyard.time == pytest.approx(moment.time)
+    ball = schoolyard.entity("ball")
+    assert np.linalg.norm(ball.velocity) > 0.4
+    kicker = schoolyard.entity("big_child")
+    feet = [kicker.node("l_foot"), kicker.node("r_foot")]
+    assert min(np.linalg.norm(f - ball.position) for f in feet) < 0.3
+
+
+@pytest.mark.parametrize("kind", ["kick", "scuffle"])
+def test_a_close_up_frames_everyone_involved_from_inside_the_yard(kind, scenes):
+    scene = Scene.load("schoolyard")  # with its fence: the eye stays inside it
+    scenes.append(scene)
+    moment = find_moment(scene, MomentSpec.parse(kind), within=20.0)
+    yard = yard_of(scene)
+    spec = closeup_camera(scene, moment.names, 16 / 9, yard)
+    camera = spec.make(scene, 16 / 9)
+    assert (yard[0] < camera.eye[[0, 2]]).all() and (camera.eye[[0, 2]] < yard[1]).all()
+    for name in moment.names:
+        xy = camera.project(scene.entity(name).node_positions, 320, 180)
+        assert ((xy >= 0) & (xy <= (320, 180))).all(), f"{name} leaves the picture"
+    heights = [np.ptp(camera.project(scene.entity(n).node_positions, 320, 180)[:, 1]) for n in moment.names]
+    assert max(heights) > 0.6 * 180  # close: the tallest one framed is most of the picture's height
+
+
+def test_twig_render_at_with_a_gif_runs_on_from_the_moment(tmp_path, capsys):
+    out = tmp_path / "kick.gif"
+    argv = ["render", "schoolyard", "--at", "kick", "--seconds", "0.5", "--fps", "10", "--size", "160x90"]
+    assert main([*argv, "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert said.startswith("kick 1 at 2.28 s: big_child and ball (camera ")
+    with Image.open(out) as gif:
+        assert gif.n_frames == 5

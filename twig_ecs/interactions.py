@@ -25,6 +25,12 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
 
 Gaps and depths are surface distances between capsules (segment distance less the two
 radii); a gap below 0 is an overlap.
+
+It also notes each interaction's **moment** (:class:`Moment`, in ``moments``): the step a
+viewer would want a picture of - a leg at the ball as it speeds up, a hand on a bar as the
+ride first spins up, both arms round the partner's back (and the partner's hand on the
+hugger's) in a hug, the two face to face within reach in a fight, a hand taking hold.
+``twig render --at`` frames them (:mod:`twig_ecs.graphics.closeup`).
 """
 
 from __future__ import annotations
@@ -51,6 +57,9 @@ FIGHT_REACH = 0.8  # m (at 1.75 m tall, the fighter's): pelvis to pelvis within 
 FACING = 0.5  # cosine: facing within 60 degrees of the other
 FOREARM_SHARE = 0.7  # of the forearm from the elbow: the rest is the (exempt) holding hand
 LEGS = (("l_hip", "l_knee"), ("r_hip", "r_knee"), ("l_knee", "l_foot"), ("r_knee", "r_foot"))
+PUSH_PAUSE = 1.0  # s without a spin-up before the next spin-up begins another push
+#: The kinds of moment recorded, in the order the docs list them.
+MOMENT_KINDS = ("kick", "push", "hug", "fight", "grab")
 ARMS = (("l_shoulder", "l_elbow", 1.0), ("r_shoulder", "r_elbow", 1.0),
         ("l_elbow", "l_hand", FOREARM_SHARE), ("r_elbow", "r_hand", FOREARM_SHARE))  # fmt: skip
 
@@ -60,6 +69,18 @@ def point_segment_gaps(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nd
     ab = b - a
     t = np.clip(np.einsum("ij,ij->i", point - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
     return np.linalg.norm(a + t[:, None] * ab - point, axis=1)
+
+
+@dataclass(slots=True, frozen=True)
+class Moment:
+    """The step that shows an interaction: its kind (one of MOMENT_KINDS), the scene time (s),
+    the step's frame number and the entities involved, the one who acts first (kicker and
+    ball, pusher and ride, hugger and partner, fighter and target, holder and held)."""
+
+    kind: str
+    time: float
+    frame: int
+    names: tuple[str, ...]
 
 
 @dataclass(slots=True)
@@ -82,6 +103,7 @@ class _Fight:
     face_to_face: int = 0
     max_shift: float = 0.0
     start: np.ndarray | None = None
+    shown: bool = False  # this fight's moment is recorded
 
 
 @dataclass(slots=True)
@@ -138,6 +160,13 @@ class InteractionRecorder:
         self.yard = yard_of(scene)
         self.outside = 0.0
         self.escaped: set[str] = set()
+        self.moments: list[Moment] = []
+        self._kick_moment = {b: -math.inf for b in self.balls}  # time of each ball's last kick moment
+        self._last_spin_up = {r: -math.inf for r in self.rides}
+        self._hug_shown: set[int] = set()  # ids of the hug goals whose moment is recorded
+
+    def _moment(self, kind: str, *names: str) -> None:
+        self.moments.append(Moment(kind, self.scene.time, self.scene.frame, names))
 
     def _collidable_links(self, body_index: int) -> list[int]:
         lk = self.scene.state.links
@@ -166,6 +195,10 @@ class InteractionRecorder:
             gap = min(gap_now, self._leg_gap[name])
             if speed - self._speed[name] > SPEED_UP:
                 self._add(self.kicks[name], gap, by)
+                if gap <= TOUCH_GAP:  # a leg touched it: a kick, unless it goes on the last one
+                    if by and scene.time - self._kick_moment[name] >= MERGE:
+                        self._moment("kick", by, name)
+                    self._kick_moment[name] = scene.time
             self._speed[name], self._leg_gap[name] = speed, gap_now
         for name, (row, links) in self.rides.items():
             spin = float(np.linalg.norm(pos[row] - prev[row])) / dt / float(st.nodes.axle_radius[row])
@@ -173,10 +206,14 @@ class InteractionRecorder:
             gap = min(gap_now, self._hand_gap[name])
             if spin - self._spin[name] > SPIN_UP:  # every spin-up frame counts: a push lasts seconds
                 self.pushes[name].append(_Event(scene.time, gap, by))
+                if gap <= HAND_GAP and scene.time - self._last_spin_up[name] > PUSH_PAUSE:
+                    self._moment("push", by, name)
+                self._last_spin_up[name] = scene.time
             self._spin[name], self._hand_gap[name] = spin, gap_now
         self._measure_hugs(chars)
         self._measure_fights(chars)
         self._measure_carried(chars)
+        self._note_grabs()
         if self.yard is not None:
             self._measure_yard()
 
@@ -262,10 +299,13 @@ class InteractionRecorder:
             if phase != "hold":
                 continue
             figures.frames += 1
-            if hands_on_back(me, partner) == 2:
-                figures.both_arms += 1
-            if hasattr(partner, "holding") and hands_on_back(partner, me) >= 1:
-                figures.partner_hand += 1
+            both = hands_on_back(me, partner) == 2
+            answered = hasattr(partner, "holding") and hands_on_back(partner, me) >= 1
+            figures.both_arms += int(both)
+            figures.partner_hand += int(answered)
+            if both and (answered or not hasattr(partner, "holding")) and goal.id not in self._hug_shown:
+                self._hug_shown.add(goal.id)
+                self._moment("hug", me.name, partner.name)
 
     def _measure_fights(self, chars) -> None:
         scene = self.scene
@@ -275,6 +315,7 @@ class InteractionRecorder:
             for pair, figures in self.fights.items():
                 if pair[0] == me.name and pair != key:
                     figures.start = None  # that fight is over: the next one starts afresh
+                    figures.shown = False
             if goal is None or "fighting" not in goal.memory or not scene.has_entity(key[1]):
                 continue
             other = scene.entity(key[1])
@@ -292,6 +333,18 @@ class InteractionRecorder:
             toward = apart / max(gap, 1e-9)
             if hasattr(other, "facing") and me.facing @ toward > FACING and -(other.facing @ toward) > FACING:
                 figures.face_to_face += 1
+                if not figures.shown:
+                    figures.shown = True
+                    self._moment("fight", me.name, other.name)
+
+    def _note_grabs(self) -> None:
+        """A moment for each hand that took hold in this step."""
+        scene = self.scene
+        for e in scene.events:
+            if e.kind == "grab":
+                holder, held = scene.name_of(e.holder), scene.name_of(e.held)
+                if holder and held:
+                    self._moment("grab", holder, held)
 
     def _arm_depth(self, me, other) -> float:
         """How deep ``me``'s arms (short of the hands) sink into ``other``'s colliders (m)."""

@@ -175,12 +175,14 @@ def check_output(output: str | Path) -> Path:
 
 def render_scene(scene, seconds: float, output: str | Path, size: tuple[int, int] = (1280, 720),
                  fps: float | None = None, camera: str | CameraSpec = "action",
-                 progress: bool | None = None, samples: int = 4) -> RenderResult:  # fmt: skip
+                 progress: bool | None = None, samples: int = 4,
+                 start: float = 0.0) -> RenderResult:  # fmt: skip
     """Run ``scene`` for ``seconds`` and write frames to ``output`` (.png, .gif, .mp4).
 
-    A PNG holds the frame at ``seconds``; GIF/MP4 hold ``round(seconds * fps)`` frames at
-    times k / fps, k = 1..n, the store interpolated between steps where a frame time
-    falls between two of them.
+    A PNG holds the frame at ``start + seconds``; GIF/MP4 hold ``round(seconds * fps)``
+    frames at times start + k / fps, k = 1..n, the store interpolated between steps where
+    a frame time falls between two of them. ``start`` (s) is a time the scene has reached
+    (a clip of what follows a moment, ``twig render --at``).
     """
     path = check_output(output)
     suffix = path.suffix.lower()
@@ -190,13 +192,14 @@ def render_scene(scene, seconds: float, output: str | Path, size: tuple[int, int
     if not 0 < fps <= 240:
         raise RenderError(f"--fps {fps:g} is out of range (1..240)")
     spec = camera if isinstance(camera, CameraSpec) else CameraSpec.parse(camera)
-    times = [seconds] if suffix == ".png" else [k / fps for k in range(1, max(1, round(seconds * fps)) + 1)]
+    count = max(1, round(seconds * fps))
+    times = [start + seconds] if suffix == ".png" else [start + k / fps for k in range(1, count + 1)]
     writer = _FrameWriter(path, size, fps, len(times))
     bar = Progress(len(times), f"render {path.name}", progress)
     timings = []
     scene.step(0)  # compile kernels and install systems before the clock starts
     if suffix == ".png":
-        scene.step(max(0, math.ceil(seconds / scene.dt - 1e-6) - scene.frame))
+        scene.step(max(0, math.ceil(times[0] / scene.dt - 1e-6) - scene.frame))
     # A still frames the scene as it ends; a clip frames where it starts (and where the
     # bodies could fall).
     cam = spec.make(scene, size[0] / size[1])
