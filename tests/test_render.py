@@ -12,7 +12,7 @@ from twig_ecs.graphics.camera import CameraError, CameraSpec
 from twig_ecs.graphics.closeup import MomentSpec, closeup_camera, find_moment
 from twig_ecs.graphics.offscreen import OffscreenRenderer, parse_size, render_scene
 from twig_ecs.graphics.renderer import build_tables, face_frames
-from twig_ecs.systems.play import yard_of
+from twig_ecs.systems.behaviours.play import yard_of
 
 SIZE = (320, 180)
 

@@ -81,7 +81,7 @@ def _render_moment(scene, moment, args, output, size, seconds, camera):
     from twig_ecs.graphics.closeup import camera_text, closeup_camera, find_moment
     from twig_ecs.graphics.offscreen import render_scene
     from twig_ecs.progress import Progress
-    from twig_ecs.systems.play import yard_of
+    from twig_ecs.systems.behaviours.play import yard_of
 
     progress = Progress(sys.stderr, f"looking for {moment}")
     try:
