@@ -1,4 +1,4 @@
-"""Attention, memory and the schoolyard's motives: components of a character's mind."""
+"""Attention and memory, and the attachment to a caregiver that attention weighs: components of a mind."""
 
 from __future__ import annotations
 
@@ -44,58 +44,3 @@ class Attachment:
     anxiety: float = 0.0
     hugs: int = 0
     look_backs: int = 0
-
-
-@dataclass(slots=True)
-class Playful:
-    """Loves a toy: approaches it and kicks it about."""
-
-    toy: str = "ball"
-    joy: float = 0.5  # activation of play
-    speed: float = 2.0  # m/s running after it
-    touches: int = 0
-
-
-@dataclass(slots=True)
-class Feisty:
-    """Picks a fight with a rival now and then, when it is near."""
-
-    rival: str = ""
-    temper: float = 0.06  # chance per second of starting a fight when within reach
-    reach: float = 2.5  # m
-    fights: int = 0
-
-
-@dataclass(slots=True)
-class Rider:
-    """Likes to spin the merry-go-round now and then."""
-
-    ride: str = "merry_go_round"
-    whim: float = 0.03  # chance per second of going for a spin
-    push: float = 220.0  # N of push on a handle
-    spins: int = 0
-
-
-@dataclass(slots=True)
-class Watchful:
-    """A caregiver: keeps its eyes on its charges, the one furthest away first."""
-
-    charges: list[str] = field(default_factory=list)
-
-
-@dataclass(slots=True)
-class Wander:
-    """Roams: picks a random point in a square and walks there round others, then another.
-
-    Targets are drawn from the square of half-size ``radius`` (m) round ``centre``
-    ([x, z]); a target counts as reached within ``arrive`` m, and one not got 10 cm
-    closer to in ``patience`` s is given up for a new one.
-    """
-
-    radius: float = 10.0
-    centre: list[float] = field(default_factory=lambda: [0.0, 0.0])
-    speed: float = 1.2  # m/s
-    arrive: float = 0.6  # m
-    patience: float = 4.0  # s
-    activation: float = 0.3  # above idle, below commanded goals
-    targets: int = 0  # how many targets it has picked

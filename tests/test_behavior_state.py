@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from twig_ecs import Scene
-from twig_ecs.components import Body, PainSensor, Withdrawing
+from twig_ecs.components import Body, PainSensor
+from twig_ecs.systems.behaviours.withdraw import Withdrawing
 
 
 def test_a_crowd_has_one_entity_per_body_and_its_nodes_and_links_are_rows_of_that_body(scenes):

@@ -9,7 +9,7 @@ import pytest
 
 from twig_ecs import Scene, SceneError
 from twig_ecs.cli import main
-from twig_ecs.components import Wander
+from twig_ecs.systems.behaviours.wander import Wander
 
 
 def write(tmp_path, text: str):

@@ -17,10 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from twig_ecs.components import Attachment, Character, Feisty, Memory, Playful, Rider
+from twig_ecs.components import Attachment, Character, Memory
 from twig_ecs.interactions import InteractionRecorder
 from twig_ecs.scene import Scene
 from twig_ecs.steering import ground_distance
+from twig_ecs.systems.behaviours.fight import Feisty
+from twig_ecs.systems.behaviours.play import Playful
+from twig_ecs.systems.behaviours.ride import Rider
 from twig_ecs.torso import TorsoRecorder
 
 TRACE_FIELDS = ("time", "character", "x", "z", "behaviour", "focus", "anxiety", "caregiver_distance", "pain")

@@ -14,9 +14,18 @@ from dataclasses import dataclass
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import CharacterHandle
-from twig_ecs.components import Attachment, Character, Glance
+from twig_ecs.components import Attachment, Character
 from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
+
+
+@dataclass(slots=True)
+class Glance:
+    """An attached child's looks back at its caregiver (systems/behaviours/attachment.py)."""
+
+    until: float = -1.0  # s the current glance ends (in the past: not glancing)
+    last: float = -1e9  # s the last glance began
+
 
 GLANCE = 1.0  # s a look back lasts
 GLANCE_EVERY = 5.0  # s at least between look-backs

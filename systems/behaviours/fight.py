@@ -1,6 +1,6 @@
 """fight: now and then a child picks a fight with its rival (SPEC 5).
 
-For each character with a :class:`~twig_ecs.components.Feisty`: when the rival is
+For each character with a :class:`Feisty`: when the rival is
 within ``reach``, a fight starts at random (``temper`` per second, from the scene's
 seeded RNG) as a grapple goal; at most one fight every ``COOLDOWN`` seconds, and none
 while the rival is on its way to a hug or in one. The one attacked squares up to the
@@ -9,12 +9,32 @@ fighter (:class:`Defend`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, goal_targets, register
-from twig_ecs.components import Character, Feisty, LastFight
+from twig_ecs.components import Character
 from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
+
+
+@dataclass(slots=True)
+class Feisty:
+    """Picks a fight with a rival now and then, when it is near."""
+
+    rival: str = ""
+    temper: float = 0.06  # chance per second of starting a fight when within reach
+    reach: float = 2.5  # m
+    fights: int = 0
+
+
+@dataclass(slots=True)
+class LastFight:
+    """When a feisty character last started a fight (systems/behaviours/fight.py: one per cooldown)."""
+
+    at: float  # s (scene time)
+
 
 COOLDOWN = 25.0  # s between fights
 FIGHT_TIME = 3.0  # s of grappling

@@ -1,6 +1,6 @@
 """play: run after the toy and kick it about, by contact (SPEC 5).
 
-For each character with a :class:`~twig_ecs.components.Playful`: its activation is its
+For each character with a :class:`Playful`: its activation is its
 joy, damped by its anxiety if it has an attachment. Winning, it picks a place to send
 the toy (inside the yard, if the scene has fences round it: see :func:`yard_of`), runs
 round to the far side of the toy from there, slows as it comes up behind it and swings
@@ -11,14 +11,48 @@ capsules hit it; a kick that misses leaves it lying, and the child lines up agai
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Attachment, Kicking, Playful, ToyHome
+from twig_ecs.components import Attachment
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.behaviours.approach import obstacles_near
 from twig_ecs.systems.behaviours.kick import FEET, foot_busy, launch_kick
+
+
+@dataclass(slots=True)
+class Playful:
+    """Loves a toy: approaches it and kicks it about."""
+
+    toy: str = "ball"
+    joy: float = 0.5  # activation of play
+    speed: float = 2.0  # m/s running after it
+    touches: int = 0
+
+
+@dataclass(slots=True)
+class Kicking:
+    """A child's game with its toy: where it wants the toy to go, its kick."""
+
+    aim_at: np.ndarray  # where it sends the toy (m)
+    kicked_at: float = -1e9
+    chosen_at: float = 0.0  # s it chose ``aim_at``
+    kick_ends: float = -1e9  # s the swinging foot lands
+    foot: str = ""  # the foot that kicked last ('l_foot' or 'r_foot')
+    speed_before: float = 0.0  # m/s of the toy before the kick
+    counted: bool = True  # has the last kick been judged (touched or missed)?
+
+
+@dataclass(slots=True)
+class ToyHome:
+    """Where a toy lay when play first sent it somewhere: with no fenced yard, kicks aim
+    within a circle round it (on the toy's entity, systems/behaviours/play.py)."""
+
+    at: np.ndarray
+
 
 BEHIND = 0.6  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks
 LINE_UP = 0.35  # m (at 1.75 m tall): how near that spot it must be to kick

@@ -1,6 +1,6 @@
 """ride: a child goes to the merry-go-round now and then and runs it round (SPEC 5).
 
-For each character with a :class:`~twig_ecs.components.Rider`: on a whim (``whim``
+For each character with a :class:`Rider`: on a whim (``whim``
 per second) it walks to the merry-go-round's rim by the nearest bar it can get its
 hands on - an overhead handle if its reach is high enough, else the deck's rim, which
 it stoops to - reaches for it with its free hands and takes hold (grab joints); then it
@@ -12,15 +12,40 @@ to the merry-go-round by the behaviour).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.character import GRAB_REACH
-from twig_ecs.components import Character, Rider, Spin
+from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.step import StepContext
 from twig_ecs.systems.behaviours.approach import obstacles_near
+
+
+@dataclass(slots=True)
+class Rider:
+    """Likes to spin the merry-go-round now and then."""
+
+    ride: str = "merry_go_round"
+    whim: float = 0.03  # chance per second of going for a spin
+    push: float = 220.0  # N of push on a handle
+    spins: int = 0
+
+
+@dataclass(slots=True)
+class Spin:
+    """A child's go at the merry-go-round: walk there, take hold, run round."""
+
+    since: float  # s it got the urge
+    phase: str = "go"  # go -> take -> run -> leave
+    bar: str = ""  # the node of the ride it holds
+    phase_since: float = 0.0
+    hands: tuple = ()  # the hands it takes hold with
+    run_out: float = 0.0  # m/s round the rim (signed, counter-clockwise seen from above) when it let go
+
 
 PUSH_TIME = 3.0  # s of running round holding on
 WANT = 0.65  # activation while it wants a spin: above play

@@ -1,6 +1,6 @@
 """wander: roam a square, one random target after another, round everyone else (crowds).
 
-For each character with a :class:`~twig_ecs.components.Wander`: its activation is the
+For each character with a :class:`Wander`: its activation is the
 component's ``activation`` (autonomous characters only). Winning, it walks to its
 target with the approach field of SPEC 4 (:func:`~twig_ecs.kernelmath.approach_field`,
 the same compiled function ``approach`` steers with), the obstacles being the nearest
@@ -16,16 +16,36 @@ table's ``walk`` and ``steer_*`` columns.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Character, Wander
+from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS, approach_field
 from twig_ecs.steering import SteeringParams
 from twig_ecs.step import StepContext
 from twig_ecs.systems.behaviours.approach import STEP_OVER
+
+
+@dataclass(slots=True)
+class Wander:
+    """Roams: picks a random point in a square and walks there round others, then another.
+
+    Targets are drawn from the square of half-size ``radius`` (m) round ``centre``
+    ([x, z]); a target counts as reached within ``arrive`` m, and one not got 10 cm
+    closer to in ``patience`` s is given up for a new one.
+    """
+
+    radius: float = 10.0
+    centre: list[float] = field(default_factory=lambda: [0.0, 0.0])
+    speed: float = 1.2  # m/s
+    arrive: float = 0.6  # m
+    patience: float = 4.0  # s
+    activation: float = 0.3  # above idle, below commanded goals
+    targets: int = 0  # how many targets it has picked
+
 
 #: Headway (m) that resets the patience clock, as in approach's stall test.
 HEADWAY = 0.1

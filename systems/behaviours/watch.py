@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.character import CharacterHandle
-from twig_ecs.components import Watchful
 from twig_ecs.steering import ground_distance
+
+
+@dataclass(slots=True)
+class Watchful:
+    """A caregiver: keeps its eyes on its charges, the one furthest away first."""
+
+    charges: list[str] = field(default_factory=list)
+
 
 WATCH = 0.3  # activation: above idle
 

@@ -9,11 +9,24 @@ interrupted goal carries on.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Character, Withdrawing
+from twig_ecs.components import Character
 from twig_ecs.step import StepContext
+
+
+@dataclass(slots=True)
+class Withdrawing:
+    """A pain withdrawal under way (systems/behaviours/withdraw.py): backing off, then walking away."""
+
+    until: float  # s (scene time) the whole retreat ends
+    stagger_until: float  # s the stagger back, facing the source, ends; it walks away after
+    away: np.ndarray  # unit vector on the ground away from the source
+    source: int  # entity of the body that hurt it
+
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
