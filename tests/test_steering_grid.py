@@ -12,13 +12,8 @@ import pytest
 
 from twig_ecs import Scene
 from twig_ecs.bench import cases
-from twig_ecs.systems.behaviours.approach import (
-    STEER_CELL,
-    STEP_OVER,
-    ground_grid,
-    nearest_obstacle_nodes,
-    obstacles_near,
-)
+from twig_ecs.systems.behaviours.approach import obstacles_near
+from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, ground_grid, nearest_obstacle_nodes
 
 
 def brute_force_obstacles(character, cutoff: float) -> np.ndarray:

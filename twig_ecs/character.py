@@ -153,7 +153,7 @@ class CharacterHandle(BodyHandle):
         return found
 
     @property
-    def _crow(self) -> int:
+    def character_row(self) -> int:
         """Row in the character table."""
         return self.character.index
 
@@ -161,7 +161,7 @@ class CharacterHandle(BodyHandle):
         return self.scene.state.characters
 
     def _role(self, role: str) -> int:
-        return int(self._chars().nodes[self._crow, _ROLE_INDEX[role]])
+        return int(self._chars().nodes[self.character_row, _ROLE_INDEX[role]])
 
     def _hands(self, hand: str) -> tuple[int, ...]:
         try:
@@ -221,12 +221,12 @@ class CharacterHandle(BodyHandle):
     @property
     def head_direction(self) -> np.ndarray:
         """Unit vector the face points along."""
-        return self._chars().head_dir[self._crow].copy()
+        return self._chars().head_dir[self.character_row].copy()
 
     @property
     def gaze_target(self) -> np.ndarray | None:
         """The point being looked at (None when looking where it goes)."""
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         if ch.gaze_mode[row] == GAZE_POINT:
             return ch.gaze_point[row].copy()
         if ch.gaze_mode[row] == GAZE_NODE and ch.gaze_node[row] >= 0:
@@ -246,38 +246,38 @@ class CharacterHandle(BodyHandle):
     @property
     def posture(self) -> str:
         """ "stand", "sit", "rise" (getting up) or "limp"."""
-        return POSTURES[int(self._chars().mode[self._crow])]
+        return POSTURES[int(self._chars().mode[self.character_row])]
 
     @property
     def walk_velocity(self) -> np.ndarray:
         """The walk vector it is following (m/s)."""
-        return self._chars().walk[self._crow].copy()
+        return self._chars().walk[self.character_row].copy()
 
     @property
     def scale(self) -> float:
         """Body height / 1.75 m: lengths in the controllers and behaviours scale by it."""
-        return float(self._chars().scale[self._crow])
+        return float(self._chars().scale[self.character_row])
 
     @property
     def stand_height(self) -> float:
         """Pelvis height (m) the character stands at."""
-        return float(self._chars().stand_height[self._crow])
+        return float(self._chars().stand_height[self.character_row])
 
     @property
     def last_foot(self) -> str:
         """The foot that stepped last: "left" or "right"."""
-        return ("left", "right")[int(self._chars().last_step[self._crow])]
+        return ("left", "right")[int(self._chars().last_step[self.character_row])]
 
     @property
     def steps(self) -> int:
         """Steps taken so far."""
-        return int(self._chars().steps[self._crow])
+        return int(self._chars().steps[self.character_row])
 
     @property
     def arm_modes(self) -> dict[str, str]:
         """What each arm is doing: hang, reach, grapple, hug, wave, point or carry."""
         names = {v: k for k, v in ARM_MODES.items()}
-        modes = self._chars().arm_mode[self._crow]
+        modes = self._chars().arm_mode[self.character_row]
         return {"left": names[int(modes[0])], "right": names[int(modes[1])]}
 
     # -- locomotion ----------------------------------------------------------------------
@@ -301,11 +301,11 @@ class CharacterHandle(BodyHandle):
 
     def stop(self) -> None:
         """Stand still (the feet settle under the hips)."""
-        self._chars().walk[self._crow] = 0.0
+        self._chars().walk[self.character_row] = 0.0
 
     def sit(self, on: str | None = None) -> None:
         """Sit down: on the ground here, or on the seat entity ``on`` (stand next to it first)."""
-        ch, row, n = self._chars(), self._crow, self.scene.state.nodes
+        ch, row, n = self._chars(), self.character_row, self.scene.state.nodes
         pelvis = n.pos[self._role("pelvis")]
         if on is None:
             seat = np.array([pelvis[0], n.radius[self._role("pelvis")], pelvis[2]])
@@ -330,7 +330,7 @@ class CharacterHandle(BodyHandle):
 
     def stand(self) -> None:
         """Stand up (from sitting: lean over the feet, then rise; from limp: at once)."""
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         if ch.mode[row] == SIT:
             ch.seat[row] = self.scene.state.nodes.pos[self._role("pelvis")]
             ch.mode[row] = RISE
@@ -341,7 +341,7 @@ class CharacterHandle(BodyHandle):
 
     def go_limp(self) -> None:
         """Stop all control: the body falls as a ragdoll until :meth:`stand`."""
-        ch, row, n = self._chars(), self._crow, self.scene.state.nodes
+        ch, row, n = self._chars(), self.character_row, self.scene.state.nodes
         ch.mode[row] = LIMP
         ch.walk[row] = 0.0
         ch.arm_mode[row] = HANG
@@ -353,7 +353,7 @@ class CharacterHandle(BodyHandle):
 
     def look_at(self, target: str | Sequence[float] | None, node: str | None = None) -> None:
         """Face a point or an entity (tracked as it moves); None: look where it goes."""
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         if target is None:
             ch.gaze_mode[row] = GAZE_AHEAD
         elif isinstance(target, str):
@@ -366,7 +366,7 @@ class CharacterHandle(BodyHandle):
     # -- arms ----------------------------------------------------------------------------
 
     def _aim(self, hands: tuple[int, ...], mode: int, target: Any, node: str | None) -> None:
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         for h in hands:
             if isinstance(target, str):
                 ch.arm_node[row, h] = self._target_node(target, node)
@@ -382,7 +382,7 @@ class CharacterHandle(BodyHandle):
         pelvis sinks (up to 55% of standing height: a squat) until they are within an
         arm's length.
         """
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         if towards is None:
             ch.crouch[row] = 0.0
             ch.lean[row] = 0.0
@@ -407,12 +407,14 @@ class CharacterHandle(BodyHandle):
 
     def lean(self, offset: Sequence[float] | None) -> None:
         """Hold the shoulders ``offset`` (m, on the ground plane) ahead of the pelvis; None: upright."""
-        self._chars().lean[self._crow] = 0.0 if offset is None else _vector(offset, "lean") * [1.0, 0.0, 1.0]
+        self._chars().lean[self.character_row] = (
+            0.0 if offset is None else _vector(offset, "lean") * [1.0, 0.0, 1.0]
+        )
 
     @property
     def seat(self) -> np.ndarray:
         """Where the pelvis goes when sitting (set by :meth:`sit`)."""
-        return self._chars().seat[self._crow].copy()
+        return self._chars().seat[self.character_row].copy()
 
     def reach(self, target: str | Sequence[float], hand: str = "right", node: str | None = None) -> None:
         """Reach a hand (or ``"both"``) towards a point or an entity."""
@@ -422,7 +424,7 @@ class CharacterHandle(BodyHandle):
         """Hold the arms in a pose: ``hang`` (relaxed), ``grapple``, ``hug`` or ``carry``."""
         if name not in ARM_POSES:
             raise TwigError(f"unknown arm pose '{name}'" + suggest(name, ARM_POSES))
-        ch, row = self._chars(), self._crow
+        ch, row = self._chars(), self.character_row
         for h in self._hands(hand):
             ch.arm_mode[row, h] = ARM_MODES[name]
 
@@ -435,7 +437,7 @@ class CharacterHandle(BodyHandle):
             self.pose("hang", hand)
         elif name == "wave":
             for h in hands:
-                self._chars().arm_mode[self._crow, h] = WAVE
+                self._chars().arm_mode[self.character_row, h] = WAVE
         elif name == "point":
             if target is None:
                 raise TwigError("gesture 'point' needs a target (an entity name or a point)")
@@ -476,8 +478,8 @@ class CharacterHandle(BodyHandle):
         grab = self.scene.grab(self.name, ("l_hand", "r_hand")[h], target, node, standoff)
         self.character.holding[hand_name] = grab
         ch = self._chars()
-        if ch.arm_mode[self._crow, h] == REACH:  # fetched it: hold it up in front
-            ch.arm_mode[self._crow, h] = CARRY
+        if ch.arm_mode[self.character_row, h] == REACH:  # fetched it: hold it up in front
+            ch.arm_mode[self.character_row, h] = CARRY
 
     def release(self, hand: str | None = None) -> None:
         """Let go with one hand, or both (None); the arm relaxes."""
@@ -487,7 +489,7 @@ class CharacterHandle(BodyHandle):
             grab = self.character.holding.pop(hand_name, None)
             if grab is not None:
                 self.scene.release(grab)
-            self._chars().arm_mode[self._crow, h] = HANG
+            self._chars().arm_mode[self.character_row, h] = HANG
 
     def _hold_nearest(self, target: str) -> None:
         """Grab ``target`` with whichever hand is nearer to it."""

@@ -40,7 +40,7 @@ def join(scene: SceneView, h: BodyHandle, node: str, t: BodyHandle, target_node:
     if h.entity == t.entity:
         raise TwigError(f"'{h.name}' cannot grab itself")
     state = scene.state
-    a, b = h._row(node), t._row(target_node)
+    a, b = h.node_row(node), t.node_row(target_node)
     links = state.links
     row = links.allocate(1).start
     links.a[row], links.b[row] = a, b

@@ -77,7 +77,8 @@ class BodyHandle:
         b = self.body
         return slice(b.node_start, b.node_start + len(b.node_names))
 
-    def _row(self, node: str) -> int:
+    def node_row(self, node: str) -> int:
+        """The store row of one of this body's nodes (KeyError with suggestions if it has none)."""
         b = self.body
         if node not in b.node_names:
             raise KeyError(f"'{self.name}' has no node '{node}'" + suggest(node, b.node_names))
@@ -85,11 +86,11 @@ class BodyHandle:
 
     def node(self, name: str) -> np.ndarray:
         """Position (m) of the named node."""
-        return self.scene.state.nodes.pos[self._row(name)].copy()
+        return self.scene.state.nodes.pos[self.node_row(name)].copy()
 
     def node_velocity(self, name: str) -> np.ndarray:
         """Velocity (m/s) of the named node over the last step."""
-        i, n = self._row(name), self.scene.state.nodes
+        i, n = self.node_row(name), self.scene.state.nodes
         return (n.pos[i] - n.prev[i]) / self.scene.dt
 
     @property
@@ -133,13 +134,13 @@ class BodyHandle:
 
     def set_node_velocity(self, node: str, velocity: tuple[float, float, float]) -> None:
         """Give one node a velocity (m/s) from now on (Verlet: moves its previous position)."""
-        i = self._row(node)
+        i = self.node_row(node)
         n = self.scene.state.nodes
         n.prev[i] = n.pos[i] - np.asarray(velocity, dtype=np.float64) * self.scene.dt
 
     def apply_force(self, node: str, force: tuple[float, float, float]) -> None:
         """Push one node with ``force`` (N) during the next step (adds force/mass to its acceleration)."""
-        i = self._row(node)
+        i = self.node_row(node)
         n = self.scene.state.nodes
         n.acc[i] += np.asarray(force, dtype=np.float64) / n.mass[i]
 
@@ -161,7 +162,7 @@ class BodyHandle:
 
     def lock(self, node: str) -> None:
         """Hold a node where it is (static friction, a fixed pivot) until :meth:`unlock`."""
-        i = self._row(node)
+        i = self.node_row(node)
         n = self.scene.state.nodes
         n.flags[i] |= NODE_LOCKED
         n.lock_pos[i] = n.pos[i]
@@ -169,7 +170,7 @@ class BodyHandle:
 
     def lock_on_contact(self, node: str, enabled: bool = True) -> None:
         """Make a node lock itself the moment it touches the ground (or stop doing so)."""
-        i = self._row(node)
+        i = self.node_row(node)
         n = self.scene.state.nodes
         if enabled:
             n.flags[i] |= NODE_LOCK_ON_CONTACT
@@ -178,11 +179,11 @@ class BodyHandle:
 
     def unlock(self, node: str) -> None:
         """Free a locked node; it starts at rest."""
-        i = self._row(node)
+        i = self.node_row(node)
         n = self.scene.state.nodes
         n.flags[i] &= np.uint32(~(NODE_LOCKED | NODE_LOCK_ON_CONTACT) & 0xFFFFFFFF)
         n.prev[i] = n.pos[i]
 
     def is_locked(self, node: str) -> bool:
         """Is the node held in place?"""
-        return bool(self.scene.state.nodes.flags[self._row(node)] & NODE_LOCKED)
+        return bool(self.scene.state.nodes.flags[self.node_row(node)] & NODE_LOCKED)

@@ -251,8 +251,8 @@ class InteractionRecorder:
         near = [me for me in chars if float(np.linalg.norm(me.position - centre)) <= 2.0 * me.scale + 1.0]
         if not near:
             return math.inf, ""
-        a = pos[[me._row(u) for me in near for u, _ in LEGS]]
-        b = pos[[me._row(v) for me in near for _, v in LEGS]]
+        a = pos[[me.node_row(u) for me in near for u, _ in LEGS]]
+        b = pos[[me.node_row(v) for me in near for _, v in LEGS]]
         radii = np.concatenate([np.array([0.07, 0.07, 0.05, 0.05]) * me.scale for me in near])
         per_leg = point_segment_gaps(centre, a, b) - radii - radius
         k = int(np.argmin(per_leg))  # the first of equals, as characters are listed
@@ -265,7 +265,7 @@ class InteractionRecorder:
         st = self.scene.state
         lk, pos = st.links, st.nodes.pos
         a, b = pos[lk.a[links]], pos[lk.b[links]]
-        hands = np.array([me._row(hand) for me in chars for hand in ("l_hand", "r_hand")])
+        hands = np.array([me.node_row(hand) for me in chars for hand in ("l_hand", "r_hand")])
         p = pos[hands]
         ab = b - a
         length2 = np.maximum(np.einsum("lk,lk->l", ab, ab), 1e-12)
@@ -389,7 +389,7 @@ class InteractionRecorder:
                 thing = scene.entity(name)
                 figures.max_link_error = max(figures.max_link_error, self._link_error(thing.body.index))
                 if scene.frame % DEPTH_EVERY == 0:  # capsule pairs in Python: sampled, not every step
-                    hands = tuple(me._row(("l_hand", "r_hand")[h == "right"])
+                    hands = tuple(me.node_row(("l_hand", "r_hand")[h == "right"])
                                   for h, n in me.holding.items() if n == name)  # fmt: skip
                     depth = self._depth(thing.body.index, me.body.index, hands)
                     figures.max_depth = max(figures.max_depth, depth)

@@ -46,7 +46,7 @@ def record(handle, seconds: float) -> Track:
         for name in TRACKED:
             pos[name][k] = handle.node(name)
         locked[k] = handle.is_locked("l_foot"), handle.is_locked("r_foot")
-    radius = float(scene.state.nodes.radius[handle._row("l_foot")])
+    radius = float(scene.state.nodes.radius[handle.node_row("l_foot")])
     walk = handle.walk_velocity
     norm = float(np.linalg.norm(walk))
     heading = walk / norm if norm > 1e-9 else np.array([0.0, 0.0, 1.0])

@@ -53,6 +53,14 @@ class World:
         self._dead: set[int] = set()  # deleted, still visible until clear_dead_entities()
         self._one: dict[type, list] = {}  # query caches
         self._many: dict[tuple[type, ...], list] = {}
+        self._resources: dict[type, Any] = {}
+
+    def resource(self, kind: type[C]) -> C:
+        """The world's one object of class ``kind`` (a spatial index, say), made on first use."""
+        found = self._resources.get(kind)
+        if found is None:
+            found = self._resources[kind] = kind()
+        return found
 
     def __getstate__(self) -> dict[str, Any]:
         """What a snapshot keeps: everything but the query caches."""
@@ -214,4 +222,8 @@ def check_world(world: World) -> None:
         raise ValueError("a component type is missing from the component table")
     if not world._dead <= set(world._entities):
         raise ValueError("an entity awaiting deletion does not exist")
+    if not isinstance(world.__dict__.get("_resources"), dict) or any(
+        type(value) is not kind for kind, value in world._resources.items()
+    ):
+        raise ValueError("the world's resources are malformed")
     world._changed()

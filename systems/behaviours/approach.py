@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,12 +21,9 @@ from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH, SIT, approach_field
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
-from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
-from twig_ecs.systems.physics.collide import _cell_hash
+from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, SpatialIndex, nearest_obstacle_nodes
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
-STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
-WIDE = 1.0  # m: a body whose nodes spread further than this from its centre is steered round as a disc
 ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
 #: s without getting 10 cm closer after which two characters approaching each other squeeze:
 #: obstacles push them ``SQUEEZE`` times as hard and neither adds the other's pace (pursuit).
@@ -51,73 +47,6 @@ def target_point(character, target) -> np.ndarray:
     return np.asarray(target, dtype=np.float64)
 
 
-_FOOTPRINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-#: Per scene: (store version, static bodies, their collidable link rows). Static bodies do not
-#: move and their links change only with the store's layout, so the rows are found once.
-_WALLS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-@njit(cache=True)
-def body_footprints(pos, body, flags, n, locked, cx, cz, spread, free):
-    """Per body, from its first ``n`` nodes: ground centre (``cx``, ``cz``: the mean of its
-    nodes), squared spread (the furthest node from it on the ground) and how many of its
-    nodes are not ``locked``. Sums in node order, as numpy's bincount does."""
-    count = np.zeros(len(cx))
-    cx[:] = 0.0
-    cz[:] = 0.0
-    spread[:] = 0.0
-    free[:] = 0.0
-    for i in range(n):
-        b = body[i]
-        count[b] += 1.0
-        cx[b] += pos[i, 0]
-        cz[b] += pos[i, 2]
-        if flags[i] & locked == 0:
-            free[b] += 1.0
-    for b in range(len(cx)):
-        m = max(count[b], 1.0)
-        cx[b] /= m
-        cz[b] /= m
-    for i in range(n):
-        b = body[i]
-        d = (pos[i, 0] - cx[b]) ** 2 + (pos[i, 2] - cz[b]) ** 2
-        if spread[b] == spread[b] and not d <= spread[b]:  # a NaN sticks, as in np.maximum
-            spread[b] = d
-
-
-def _footprints(scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict, np.ndarray]:
-    """Each body's ground centre (x, z), squared spread, whether it is WIDE, and, for a
-    static body (every node locked: a fence, a wall), its collidable links, and which
-    bodies are either (steered round by their shape, not their nearest node); computed
-    once per step however many characters steer (kept aside, not in the scene's state)."""
-    cached = _FOOTPRINTS.get(scene)
-    if cached is not None and cached[0] == scene.frame:
-        return cached[1]
-    state = scene.state
-    n_bodies = state.bodies.count
-    cx, cz, spread, free = np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies), np.empty(n_bodies)
-    body_footprints(state.nodes.pos, state.nodes.body, state.nodes.flags, state.nodes.count, NODE_LOCKED,
-                    cx, cz, spread, free)  # fmt: skip
-    static = (free == 0) & (np.sqrt(spread) > WIDE)
-    links = state.links
-    walls = {}
-    if static.any():  # (a crowd has none: no pass over every link)
-        bodies = tuple(np.flatnonzero(static).tolist())
-        known = _WALLS.get(scene)
-        if known is not None and known[0] == state.version and known[1] == bodies:
-            walls = known[2]
-        else:
-            collide = (links.flags[: links.count] & LINK_COLLIDE) != 0
-            walls = {b: np.flatnonzero(collide & (links.body[: links.count] == b)) for b in bodies}
-            _WALLS[scene] = (state.version, bodies, walls)
-    wide = (np.sqrt(spread) > WIDE) & ~static
-    # bodies steered round as discs or walls, not by their nearest node
-    blocked = wide | static
-    result = (cx, cz, spread, wide, walls, blocked)
-    _FOOTPRINTS[scene] = (scene.frame, result)
-    return result
-
-
 def _nearest_on_links(state, rows: np.ndarray, here: np.ndarray) -> tuple[np.ndarray, float]:
     """The point of the links ``rows`` nearest to ``here`` on the ground plane, and its distance."""
     pos = state.nodes.pos
@@ -129,147 +58,6 @@ def _nearest_on_links(state, rows: np.ndarray, here: np.ndarray) -> tuple[np.nda
     d = np.linalg.norm(points - flat, axis=1)
     k = int(np.argmin(d))
     return points[k] + np.array([0.0, here[1], 0.0]), float(d[k])
-
-
-#: Edge (m) of the ground grid steering finds obstacles in: above the usual cut-off
-#: (1.8 m), so a character's disc spans at most 2 x 2 cells.
-STEER_CELL = 2.0
-#: A disc spanning more cells than this (a cut-off much longer than the cell) scans every node.
-MAX_CELLS = 16
-
-
-@njit(cache=True, inline="always")
-def _ground_bucket(x, z, cell, mask):
-    """The hash bucket of the ground cell holding (x, z); a lost (non-finite) node goes in bucket 0."""
-    if not (math.isfinite(x) and math.isfinite(z)):
-        return 0
-    return _cell_hash(int(math.floor(x / cell)), 0, int(math.floor(z / cell)), mask)
-
-
-@njit(cache=True)
-def ground_grid(pos, n, cell, start, entries):
-    """Bin the first ``n`` nodes by their ground cell (x, z) in a spatial hash.
-
-    ``start`` is a power of two plus one long: bucket h holds the node rows
-    ``entries[start[h]:start[h + 1]]``, in ascending order. Built once per step and
-    shared by every character that steers (:func:`nearest_obstacle_nodes`).
-    """
-    mask = len(start) - 2
-    start[:] = 0
-    for i in range(n):
-        h = _ground_bucket(pos[i, 0], pos[i, 2], cell, mask)
-        start[h + 1] += 1
-    for h in range(mask + 1):
-        start[h + 1] += start[h]
-    fill = start[:-1].copy()
-    for i in range(n):
-        h = _ground_bucket(pos[i, 0], pos[i, 2], cell, mask)
-        entries[fill[h]] = i
-        fill[h] += 1
-
-
-@njit(cache=True)
-def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, step_over, blocked, skip,
-                           best, scratch, out):  # fmt: skip
-    """The nearest node of every body within ``cutoff`` of (x, z) on the ground that stands
-    higher than ``step_over``, into ``out``; returns how many.
-
-    Bodies flagged in ``blocked`` (steered round another way) and those in ``skip`` are
-    left out. The candidates come from the grid cells the disc touches, in bucket order;
-    the result is nevertheless the one a scan of every node in ascending order gives: of
-    equally near nodes the lower row wins, and the bodies come in the order of their
-    first node in reach (``scratch`` keeps it per body found; an insertion sort of the
-    few bodies found replaces sorting every candidate, which cost half the query).
-    ``best`` (one slot per body) must hold -1 and is left so; ``scratch`` holds as many
-    as ``out``.
-    """
-    mask = len(start) - 2
-    lo_x, hi_x = int(math.floor((x - cutoff) / cell)), int(math.floor((x + cutoff) / cell))
-    lo_z, hi_z = int(math.floor((z - cutoff) / cell)), int(math.floor((z + cutoff) / cell))
-    full = (hi_x - lo_x + 1) * (hi_z - lo_z + 1) > MAX_CELLS or not (math.isfinite(x) and math.isfinite(z))
-    buckets = np.empty(MAX_CELLS, dtype=np.int64)
-    nb = 1  # a full scan: one run of every row
-    if not full:
-        nb = 0
-        for ix in range(lo_x, hi_x + 1):
-            for iz in range(lo_z, hi_z + 1):
-                h = _cell_hash(ix, 0, iz, mask)
-                seen = False
-                for k in range(nb):  # two cells can share a bucket: take its nodes once
-                    if buckets[k] == h:
-                        seen = True
-                if not seen:
-                    buckets[nb] = h
-                    nb += 1
-    reach = cutoff**2
-    count = 0
-    for kb in range(nb):
-        lo, hi = (0, n) if full else (start[buckets[kb]], start[buckets[kb] + 1])
-        for e in range(lo, hi):
-            i = e if full else entries[e]
-            d2 = (pos[i, 0] - x) ** 2 + (pos[i, 2] - z) ** 2
-            if not d2 < reach:
-                continue
-            b = body[i]
-            if blocked[b] or pos[i, 1] <= step_over:
-                continue
-            skipped = False
-            for k in range(len(skip)):
-                if skip[k] == b:
-                    skipped = True
-            if skipped:
-                continue
-            j = best[b]
-            if j < 0:
-                best[b] = i
-                out[count] = b
-                scratch[count] = i
-                count += 1
-                continue
-            dj = (pos[j, 0] - x) ** 2 + (pos[j, 2] - z) ** 2
-            if d2 < dj or (d2 == dj and i < j):
-                best[b] = i
-            for k in range(count):  # the body's first node in reach: its lowest row
-                if out[k] == b:
-                    if i < scratch[k]:
-                        scratch[k] = i
-                    break
-    for k in range(1, count):  # bodies by their first node in reach (the scan's order)
-        key, b = scratch[k], out[k]
-        m = k - 1
-        while m >= 0 and scratch[m] > key:
-            scratch[m + 1] = scratch[m]
-            out[m + 1] = out[m]
-            m -= 1
-        scratch[m + 1] = key
-        out[m + 1] = b
-    for k in range(count):  # bodies to their nearest nodes; the slots back to -1
-        b = out[k]
-        out[k] = best[b]
-        best[b] = -1
-    return count
-
-
-_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _steering_grid(scene) -> tuple:
-    """This step's ground grid of the nodes and the scratch arrays of a query (built on the
-    first call of a step, shared by every character; nodes stand still from the collide
-    pass until gait, which is when behaviours steer)."""
-    state = scene.state
-    n = state.nodes.count
-    cached = _GRIDS.get(scene)
-    if cached is not None and cached[0] == (scene.frame, n, state.bodies.count):
-        return cached[1]
-    size = 1 << max(4, int(2 * n - 1).bit_length())  # >= 2 x nodes, a power of two
-    start = np.empty(size + 1, dtype=np.int64)
-    entries = np.empty(max(n, 1), dtype=np.int64)
-    ground_grid(state.nodes.pos, n, STEER_CELL, start, entries)
-    best = np.full(state.bodies.count, -1, dtype=np.int64)
-    grid = (start, entries, best, np.empty(max(n, 1), dtype=np.int64), np.empty(max(n, 1), dtype=np.int64))
-    _GRIDS[scene] = ((scene.frame, n, state.bodies.count), grid)
-    return grid
 
 
 def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray | None = None) -> np.ndarray:
@@ -291,7 +79,8 @@ def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray
     # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
     # its nearest node can be a metre from the bar one would walk into, and stepping
     # across a turning deck catches the legs in its bars
-    cx, cz, spread, wide, walls, blocked = _footprints(scene)
+    index = SpatialIndex.of(scene)
+    cx, cz, spread, wide, walls, blocked = index.footprints(scene)
     # a fence or wall is long and thin: its nearest point, not a disc round its middle
     for b, rows in walls.items():
         if b in skip or np.hypot(here[0] - cx[b], here[2] - cz[b]) - np.sqrt(spread[b]) > cutoff:
@@ -311,7 +100,7 @@ def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray
             points.append(np.array([cx[b], here[1], cz[b]]) + rim)
     # the nearest node of each other body that stands higher than a step: things lying
     # low on the ground (a dropped doll, a ball) are stepped over or kicked
-    start, entries, best, scratch, out = _steering_grid(scene)
+    start, entries, best, scratch, out = index.grid(scene)
     skip_rows = np.array(sorted(skip), dtype=np.int64)
     count = nearest_obstacle_nodes(state.nodes.pos, state.nodes.body, state.nodes.count, start, entries,
                                    STEER_CELL, float(here[0]), float(here[2]), float(cutoff), STEP_OVER,
@@ -764,8 +553,9 @@ class Approach(Behavior):
             row, entity, goal = packed.rows[k]
             scene.character_handle(entity).reach(goal.params["target"], hand="both")
         if len(packed.rows):
-            start, entries, slot, scratch, found = _steering_grid(scene)
-            cx, cz, spread, wide, walls, blocked = _footprints(scene)
+            index = SpatialIndex.of(scene)
+            start, entries, slot, scratch, found = index.grid(scene)
+            cx, cz, spread, wide, walls, blocked = index.footprints(scene)
             wall_body, wall_start, wall_links = _wall_table(walls)
             obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
             steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, entries,

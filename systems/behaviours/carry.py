@@ -160,7 +160,7 @@ class Cradle(Behavior):
                 continue  # no control: its arms hang, whatever they hold
             for hand, held in me.holding.items():
                 h = int(hand == "right")
-                if modes[me._crow, h] == HANG and _loose(scene, held):
+                if modes[me.character_row, h] == HANG and _loose(scene, held):
                     me.pose("carry", hand=hand)
 
 

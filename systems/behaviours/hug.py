@@ -423,5 +423,6 @@ class Hug(Behavior):
 def hands_on_back(holder, held) -> int:
     """How many of ``holder``'s hands are on ``held``'s back (:func:`count_hands_on_back`)."""
     pos = holder.scene.state.nodes.pos
-    return int(count_hands_on_back(pos, holder._row("spine"), holder._row("l_hand"), holder._row("r_hand"),
-                                   held._row("pelvis"), held._row("spine"), held._row("neck")))  # fmt: skip
+    hands = (holder.node_row("spine"), holder.node_row("l_hand"), holder.node_row("r_hand"))
+    back = (held.node_row("pelvis"), held.node_row("spine"), held.node_row("neck"))
+    return int(count_hands_on_back(pos, *hands, *back))

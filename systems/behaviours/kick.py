@@ -29,7 +29,7 @@ def foot_busy(character) -> bool:
     feet down included, so a walker lining up slowly would never be free to kick.
     """
     n = character.scene.state.nodes
-    rows = [character._row(f) for f in FEET]
+    rows = [character.node_row(f) for f in FEET]
     return bool(any(n.move_time[i] > 0.0 and not n.flags[i] & NODE_LOCKED for i in rows))
 
 
@@ -43,7 +43,7 @@ def launch_kick(character, foot: str, target, duration: float) -> None:
     scene = character.scene
     st = scene.state
     n = st.nodes
-    i = character._row(foot)
+    i = character.node_row(foot)
     dt = scene.dt
     g = np.asarray(scene.settings.gravity, dtype=np.float64)
     p = n.pos[i].copy()
@@ -54,4 +54,4 @@ def launch_kick(character, foot: str, target, duration: float) -> None:
     n.move_gravity[i] = MOVE_ARC
     n.prev[i] = p - v0 * dt
     # the foot's step timer: the gait leaves it alone (and steps no other foot) meanwhile
-    st.characters.swing[character._crow, FEET.index(foot)] = duration
+    st.characters.swing[character.character_row, FEET.index(foot)] = duration

@@ -288,7 +288,7 @@ class Play(Behavior):
         scale = character.scale
         other = FEET[1 - FEET.index(foot)]
         start = character.node(foot)
-        if not character.scene.state.nodes.flags[character._row(other)] & NODE_LOCKED:
+        if not character.scene.state.nodes.flags[character.node_row(other)] & NODE_LOCKED:
             character.stop()  # wait for the standing foot to plant
             return
         # the arc ends beyond the toy, on the aim line - but only a swing in front of the body:

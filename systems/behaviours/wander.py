@@ -26,7 +26,7 @@ from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS, approach_field
 from twig_ecs.steering import SteeringParams
 from twig_ecs.step import StepContext
-from twig_ecs.systems.behaviours.approach import STEP_OVER
+from twig_ecs.systems.control.spatial import STEP_OVER
 
 
 @dataclass(slots=True)

@@ -74,7 +74,7 @@ def contacts_of(state) -> tuple:
 
 
 @njit(cache=True, inline="always")
-def _cell_hash(ix, iy, iz, mask):
+def cell_hash(ix, iy, iz, mask):
     h = (ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)
     return h & mask
 
@@ -151,7 +151,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
-                    start[_cell_hash(ix, iy, iz, hmask) + 1] += 1
+                    start[cell_hash(ix, iy, iz, hmask) + 1] += 1
     for h in range(size):
         start[h + 1] += start[h]
     # fill, moving each bucket's start forward; then shift back (no second array)
@@ -159,7 +159,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
-                    h = _cell_hash(ix, iy, iz, hmask)
+                    h = cell_hash(ix, iy, iz, hmask)
                     e = start[h]
                     entry_box[e] = c
                     entry_cell[e, 0] = ix
