@@ -307,7 +307,8 @@ class Renderer:
         """Draw ``scene`` seen by ``camera`` into ``self.frame`` and return it.
 
         ``alpha`` in [0, 1] interpolates node positions between the previous and the
-        current step. ``panels`` are (key, PIL RGBA image, x, y) text panels placed in
+        current step. ``scene`` None draws the shapes of the last frame again (another
+        thread is stepping the scene). ``panels`` are (key, PIL RGBA image, x, y) text panels placed in
         pixels from the top-left corner.
         """
         self.resize(size)
@@ -317,7 +318,8 @@ class Renderer:
         fbo.use()
         ctx.viewport = (0, 0, width, height)
         ctx.clear(*SKY, 1.0, depth=1.0)
-        self._fill(scene, alpha)
+        if scene is not None:
+            self._fill(scene, alpha)
 
         viewproj = camera.view_projection(width / height).astype(np.float32)
         eye = camera.eye
