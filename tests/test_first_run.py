@@ -88,6 +88,29 @@ def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_a
     assert reuse.stdout.strip().endswith("[]")
 
 
+@pytest.mark.slow  # compiles kernels in an empty cache
+def test_a_first_builds_progress_total_is_the_count_it_compiles_and_never_changes(tmp_path, balls_scene):
+    # it used to guess 20 (or the count an earlier build remembered) and grow past it: x/20, then
+    # 21/21 ... 40/40; now a worker counts the kernels first, stepping the scene once as plain Python
+    probe = (
+        "import time; from twig_ecs import kernels\n"
+        f"b = kernels.KernelBuild({str(balls_scene)!r})\n"
+        "shown = []\n"
+        "while not b.poll():\n"
+        "    shown.append(b.status().split(': ', 1)[1].split()[0])\n"
+        "    time.sleep(0.02)\n"
+        "print(repr((shown, sorted(b.expected or ()), sorted(b.compiled), b.errors)))\n"
+    )
+    build = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
+    assert build.returncode == 0, build.stderr
+    shown, expected, compiled, errors = eval(build.stdout)  # noqa: S307 - our own probe's printout
+    assert errors == [] and len(compiled) >= 5
+    assert expected == compiled  # the count was the kernels the build then compiled, no more, no fewer
+    totals = [progress.split("/")[1] for progress in shown if "/" in progress]
+    assert set(totals) == {str(len(compiled))}  # one total, from its first showing to the end
+    assert {progress for progress in shown if "/" not in progress} <= {"counting"}  # no guess before
+
+
 def test_every_kernel_is_filed_by_our_cache_locator():
     # numba binds a kernel to a cache locator when it is decorated: a kernel module imported
     # before configure_cache (a new module that skips kernelmath and the systems package,

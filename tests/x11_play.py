@@ -198,6 +198,7 @@ class FirstRun:
         self.ends: list[float] = []  # perf_counter() after each frame drawn
         self.totals: set[str] = set()  # the progress totals shown ("/20")
         self.slow: list[tuple[float, float]] = []  # (wall s, scene time) of each slow-motion frame
+        self.status = ""  # the build's last status line
 
     def frame(self) -> None:
         self.window.frame()
@@ -205,7 +206,7 @@ class FirstRun:
         self.ends.append(now)
         loading = self.window.loading
         if loading is not None:
-            status = loading.build.status()
+            status = self.status = loading.build.status()
             if "/" in status:
                 self.totals.add(status.split("/")[1].split()[0])
             if self.window.viewer is not None:
@@ -213,17 +214,20 @@ class FirstRun:
         if now - self.started > FIRST_RUN_LIMIT:
             raise TimeoutError("the first run ran out of time")
 
-    def gaps(self) -> float:
-        """The longest wall time between two frames drawn (s)."""
+    def gaps(self) -> tuple[float, float]:
+        """The longest wall time between two frames drawn (s), and when it ended (s from the start)."""
         ends = [self.started, *self.ends]
-        return max(b - a for a, b in zip(ends, ends[1:], strict=False))
+        gap, end = max((b - a, b) for a, b in zip(ends, ends[1:], strict=False))
+        return gap, end - self.started
 
     def result(self) -> dict:
         moved = self.slow[-1][1] - self.slow[0][1] if len(self.slow) > 1 else 0.0
         wall = self.slow[-1][0] - self.slow[0][0] if len(self.slow) > 1 else 0.0
-        return {"frames": len(self.ends), "max_gap": self.gaps(), "totals": sorted(self.totals),
+        gap, at = self.gaps()
+        return {"frames": len(self.ends), "max_gap": gap, "max_gap_at": at, "totals": sorted(self.totals),
                 "slow_frames": len(self.slow), "slow_simulated": moved, "slow_wall": wall,
-                "first_step": self.window.first_step and self.window.first_step - self.started}  # fmt: skip
+                "first_step": self.window.first_step and self.window.first_step - self.started,
+                "build": self.status}  # fmt: skip
 
 
 def first_run_esc(out: Path) -> dict:
@@ -260,9 +264,14 @@ def first_run_full(out: Path) -> dict:
     try:
         while window.loading is not None:
             run.frame()
+        compiling = run.gaps()  # while the kernels compiled
         for _ in range(30):
             run.frame()
-        return {**run.result(), "full_speed": window.full_speed - run.started}
+        return {
+            **run.result(),
+            "full_speed": window.full_speed - run.started,
+            "max_gap_compiling": compiling[0],
+        }
     finally:
         window.close()
 

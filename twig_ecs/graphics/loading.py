@@ -6,13 +6,22 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 from PIL import Image
 
 from twig_ecs.graphics.overlay import text_panel
 
-LOADING_FRAME_S = 0.05  # while the kernels compile, about 20 frames a second
+#: While the kernels compile, a frame every this many seconds at most (5 a second): each one
+#: drawn leaves the cores to the compiling workers until then. Drawing the scene costs tens of
+#: ms under software GL: at 20 frames a second the window took half a core from the compile.
+LOADING_FRAME_S = 0.2
+
+
+def rest_after_frame(began: float) -> None:
+    """Sleep out the rest of a loading frame that began at ``began`` (perf_counter), at least 20 ms."""
+    time.sleep(max(0.02, LOADING_FRAME_S - (time.perf_counter() - began)))
 
 
 @dataclass

@@ -14,7 +14,7 @@ from __future__ import annotations
 import threading
 import time
 
-from twig_ecs.graphics.loading import LOADING_FRAME_S, Loading
+from twig_ecs.graphics.loading import Loading, rest_after_frame
 from twig_ecs.graphics.play_view import PlayView
 from twig_ecs.graphics.slow_motion_view import SlowMotionView
 from twig_ecs.graphics.view import View
@@ -58,12 +58,13 @@ class LoadingView(View):
             self._made.append(exc)
 
     def on_draw(self) -> None:
+        began = time.perf_counter()
         window = self.window
         size, scale = window.framebuffer()
         image = self.loading.panel(scale)
         x, y = (size[0] - image.size[0]) // 2, (size[1] - image.size[1]) // 2
         window.renderer.render_panels(size, (("loading", image, x, y),))
-        time.sleep(LOADING_FRAME_S)  # leave the cores to the compiling workers
+        rest_after_frame(began)  # leave the cores to the compiling workers
 
     def on_key_press(self, symbol: int, modifiers: int) -> None:
         if symbol == self.window.keys.ESCAPE:  # nothing else to do yet

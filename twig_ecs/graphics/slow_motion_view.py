@@ -16,7 +16,7 @@ from __future__ import annotations
 import threading
 import time
 
-from twig_ecs.graphics.loading import LOADING_FRAME_S, Loading
+from twig_ecs.graphics.loading import Loading, rest_after_frame
 from twig_ecs.graphics.play_view import PlayView
 from twig_ecs.graphics.view import View
 
@@ -76,7 +76,7 @@ class Stepper:
                 if finishing:
                     return
                 busy = time.perf_counter() - began
-                self._stop.wait(max(LOADING_FRAME_S, busy * (1.0 - self.share) / self.share))
+                self._stop.wait(max(0.02, busy * (1.0 - self.share) / self.share))
         except BaseException as exc:  # noqa: BLE001 - raised again on the window's thread
             self.error = exc
 
@@ -126,6 +126,7 @@ class SlowMotionView(View):
         self.viewer.stats.add_frame(window.wall_gap * 1000.0)
 
     def on_draw(self) -> None:
+        began = time.perf_counter()
         window, viewer = self.window, self.viewer
         size, scale = window.framebuffer()
         viewer.notice = self.loading.notice(scale)
@@ -143,7 +144,7 @@ class SlowMotionView(View):
                 self.stepper.lock.release()
         else:  # a step is under way: the last frame's shapes, the progress brought up to date
             viewer.redraw(window.renderer, size, scale)
-        time.sleep(LOADING_FRAME_S)  # leave the cores to the compiling workers
+        rest_after_frame(began)  # leave the cores to the compiling workers
 
     def on_close(self) -> None:
         self.loading.build.cancel()
