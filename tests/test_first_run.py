@@ -99,15 +99,15 @@ def test_a_first_builds_progress_total_is_the_count_it_compiles_and_never_change
         "while not b.poll():\n"
         "    shown.append(b.status().split(': ', 1)[1].split()[0])\n"
         "    time.sleep(0.02)\n"
-        "print(repr((shown, sorted(b.expected or ()), sorted(b.compiled), b.errors)))\n"
+        "print(repr((shown, sorted(b.compiled), b.errors)))\n"
     )
     build = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
     assert build.returncode == 0, build.stderr
-    shown, expected, compiled, errors = eval(build.stdout)  # noqa: S307 - our own probe's printout
+    shown, compiled, errors = eval(build.stdout)  # noqa: S307 - our own probe's printout
     assert errors == [] and len(compiled) >= 5
-    assert expected == compiled  # the count was the kernels the build then compiled, no more, no fewer
     totals = [progress.split("/")[1] for progress in shown if "/" in progress]
-    assert set(totals) == {str(len(compiled))}  # one total, from its first showing to the end
+    # one total, from its first showing to the end: the kernels the build then compiled
+    assert set(totals) == {str(len(compiled))}
     assert {progress for progress in shown if "/" not in progress} <= {"counting"}  # no guess before
 
 

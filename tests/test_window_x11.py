@@ -113,5 +113,5 @@ def test_a_first_run_redraws_twice_a_second_and_answers_esc_while_the_kernels_co
     seen = play(display, "first_run_esc", tmp_path, env=env)
     assert seen["max_gap"] <= 0.5, seen  # issue 33: at least two frames a second (it was 3.5-24 s)
     assert seen["esc_s"] <= 1.0, seen  # from xdotool's start to the window closed
-    assert seen["slow_simulated"] >= 0.1, seen  # the slow motion moved (6 frames in 12 s before)
+    assert seen["slow_simulated"] > 0, seen  # the scene stepped in slow motion meanwhile
     assert len(seen["totals"]) == 1, seen  # one progress total, never a growing one
