@@ -97,6 +97,7 @@ class SlowMotionView(View):
         self.stepper = Stepper(viewer, loading.kernels)
         self._input: list[tuple[str, tuple]] = []  # events waiting for the stepper's step to end
         self._elapsed = 0.0
+        self._drawn = (-1, 0.0)  # the stepper's step count and the time at the last full draw
 
     @property
     def viewer(self):
@@ -106,7 +107,11 @@ class SlowMotionView(View):
         self.play.window = self.window
         self.play.on_show_view()
         self.viewer.alpha = 1.0  # no interpolation: a frame shows the last step
+        self.viewer.keep_scene = True
         self.stepper.start()
+
+    def on_hide_view(self) -> None:
+        self.viewer.keep_scene = False
 
     def on_update(self, elapsed: float) -> None:
         window, stepper = self.window, self.stepper
@@ -131,7 +136,7 @@ class SlowMotionView(View):
         size, scale = window.framebuffer()
         viewer.notice = self.loading.notice(scale)
         viewer.window_size = (window.width, window.height)
-        if self.stepper.lock.acquire(blocking=False):  # between two steps: the scene is ours
+        if self._scene_changed() and self.stepper.lock.acquire(blocking=False):  # the scene is ours
             try:
                 for name, args in self._input:
                     getattr(self.play, name)(*args)
@@ -140,11 +145,20 @@ class SlowMotionView(View):
                     viewer.move_camera(self._elapsed)
                     self._elapsed = 0.0
                     viewer.draw(window.renderer, size, scale)
+                    self._drawn = (self.stepper.steps, began)
             finally:
                 self.stepper.lock.release()
-        else:  # a step is under way: the last frame's shapes, the progress brought up to date
+        else:  # a step is under way, or nothing moved: the last scene, the progress up to date
             viewer.redraw(window.renderer, size, scale)
         rest_after_frame(began)  # leave the cores to the compiling workers
+
+    def _scene_changed(self) -> bool:
+        """Does this frame show anything new: a step, input, a camera key held, or the camera's
+        framing catching up (a full draw a second)? Otherwise the last scene is drawn again."""
+        steps, when = self._drawn
+        viewer = self.viewer
+        return (self.stepper.steps != steps or bool(self._input) or bool(viewer.keys_down)
+                or viewer.camera is None or time.perf_counter() - when >= 1.0)  # fmt: skip
 
     def on_close(self) -> None:
         self.loading.build.cancel()

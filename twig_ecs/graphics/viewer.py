@@ -119,6 +119,8 @@ class Viewer:
         self._own_steps = 0  # steps this viewer took since the last draw
         self._seen = (self.scene.frame, time.perf_counter())  # scene frame and time at the last draw
         self.stepped_elsewhere = False  # set when the scene advances without us (a server steps it)
+        #: keep each frame's scene without its panels, for :meth:`redraw` (while in slow motion)
+        self.keep_scene = False
         self.keys_down: set[int] = set()
         self._status_cache: tuple[str, Image.Image] | None = None
         self._panel_cache: dict[str, tuple[tuple, Image.Image]] = {}
@@ -651,7 +653,7 @@ class Viewer:
         renderer.options.extra_capsules = self.markers()
         self.inspector.prepare(renderer)
         self._panels = tuple(self.panels(size, scale))
-        renderer.render(self.scene, self.camera, size, self.alpha, self._panels)
+        renderer.render(self.scene, self.camera, size, self.alpha, self._panels, keep_scene=self.keep_scene)
         self.inspector.draw(self, renderer, size, self.window_size, self._elapsed or 1 / 60)
         if self.screenshot_requested:
             self.screenshot_requested = False
