@@ -145,6 +145,29 @@ def test_editing_a_pure_python_behaviour_compiles_no_kernel_and_a_kernel_module_
     assert len(new) == 1 and new.pop().startswith("control.respiration-")
 
 
+@pytest.mark.slow  # compiles kernels in an empty cache
+def test_a_first_builds_progress_total_is_the_count_it_compiles_and_never_changes(tmp_path, balls_scene):
+    # it used to guess 20 (or the count an earlier build remembered) and grow past it: x/20, then
+    # 21/21 ... 40/40; now a worker counts the kernels first, stepping the scene once as plain Python
+    probe = (
+        "import time; from twig_ecs import kernels\n"
+        f"b = kernels.KernelBuild({str(balls_scene)!r})\n"
+        "shown = []\n"
+        "while not b.poll():\n"
+        "    shown.append(b.status().split(': ', 1)[1].split()[0])\n"
+        "    time.sleep(0.02)\n"
+        "print(repr((shown, sorted(b.compiled), b.errors)))\n"
+    )
+    build = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
+    assert build.returncode == 0, build.stderr
+    shown, compiled, errors = eval(build.stdout)  # noqa: S307 - our own probe's printout
+    assert errors == [] and len(compiled) >= 5
+    totals = [progress.split("/")[1] for progress in shown if "/" in progress]
+    # one total, from its first showing to the end: the kernels the build then compiled
+    assert set(totals) == {str(len(compiled))}
+    assert {progress for progress in shown if "/" not in progress} <= {"counting"}  # no guess before
+
+
 def test_every_kernel_is_filed_by_our_cache_locator():
     # numba binds a kernel to a cache locator when it is decorated: a kernel module imported
     # before configure_cache (a new module that skips kernelmath and the systems package,
@@ -232,6 +255,16 @@ class FakeBuild:
         self.cancelled = True
 
 
+def frames_until(window, done, seconds: float = 60.0) -> None:
+    """Draw the window's frames until ``done()`` (what a thread of the window does meanwhile)."""
+    import time
+
+    end = time.monotonic() + seconds
+    while not done():
+        assert time.monotonic() < end, "not done after a minute of frames"
+        window.frame()
+
+
 def test_window_draws_compile_progress_at_once_then_runs_the_scene():
     window_class = _window_class(load_pyglet_window(headless=True))
     from twig_ecs.graphics.app import Viewer
@@ -272,7 +305,7 @@ def test_scene_steps_in_slow_motion_while_the_kernels_compile_then_at_full_speed
     from twig_ecs.graphics.app import Viewer
     from twig_ecs.systems.physics import collide
 
-    build = FakeBuild(polls=6)
+    build = FakeBuild(polls=10_000)  # until told to end, below
     # as on a first run: the workers cache the kernels only as the build ends
     monkeypatch.setattr(kernels, "_cached_on_disk", lambda kernel: build.polls <= 1)
     loading = Loading(build, lambda: Viewer("schoolyard"), "twig - schoolyard", interim=True)
@@ -280,13 +313,13 @@ def test_scene_steps_in_slow_motion_while_the_kernels_compile_then_at_full_speed
     try:
         window.frame()
         assert window.viewer is None  # the first frame is the progress panel alone
-        window.frame()
-        assert window.viewer is not None and window.loading is not None  # the scene, the build still on
+        frames_until(window, lambda: window.viewer is not None)  # the scene loads in a thread meanwhile
+        assert window.loading is not None  # the scene, the build still on
         assert not kernels._ours(collide.solve_collisions)  # stepped as plain Python: nothing compiles here
-        for _ in range(2):
-            window.frame()
-        assert window.viewer.scene.frame >= 1 and build.polls >= 2  # it steps before the build ends
+        frames_until(window, lambda: window.viewer.scene.frame >= 1)  # stepped in a thread of its own
+        assert build.polls >= 2  # it steps before the build ends
         assert not kernels._ours(collide.solve_collisions)
+        build.polls = 4  # the workers cache every kernel as the build ends, a few frames from now
         assert window.viewer.notice is not None  # under the progress panel
         names = {key for key, *_ in window.viewer.panels((480, 270), 1.0)}
         assert {"notice", "status"} <= names
@@ -312,9 +345,8 @@ def test_closing_the_window_during_slow_motion_restores_the_kernels(monkeypatch)
     build = FakeBuild(polls=100)
     loading = Loading(build, lambda: Viewer("empty"), "twig - empty", interim=True)
     window = window_class(None, (160, 90), visible=False, loading=loading)
-    for _ in range(3):
-        window.frame()
-    assert window.viewer is not None and not kernels._ours(constrain.solve_constraints)
+    frames_until(window, lambda: window.viewer is not None and window.viewer.scene.frame >= 1)
+    assert not kernels._ours(constrain.solve_constraints)
     window.close()
     assert build.cancelled and kernels._ours(constrain.solve_constraints)
 

@@ -15,6 +15,7 @@ then a recording started and stopped with V).
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -30,6 +31,7 @@ SIZE = (640, 360)
 #: The playground seen from the stander's side, the bench on the left: both big enough to click.
 BENCH_VIEW = "-4.4,2.4,5.2@-4.6,0.5,0.6"
 WALL_LIMIT = 120.0  # s: a scenario that has not finished by then reports what it has
+FIRST_RUN_LIMIT = 300.0  # s: the same for a first run, which compiles every kernel
 
 
 class Driver:
@@ -187,7 +189,95 @@ def slow(out: Path) -> dict:
         window.close()
 
 
-SCENARIOS = {"sit": sit, "missed_grab": missed_grab, "slow": slow}
+class FirstRun:
+    """Draws a first run's frames as ``twig play`` does, noting when each ended and what it showed."""
+
+    def __init__(self, window) -> None:
+        self.window = window
+        self.started = time.perf_counter()
+        self.ends: list[float] = []  # perf_counter() after each frame drawn
+        self.totals: set[str] = set()  # the progress totals shown ("/20")
+        self.slow: list[tuple[float, float]] = []  # (wall s, scene time) of each slow-motion frame
+        self.status = ""  # the build's last status line
+
+    def frame(self) -> None:
+        self.window.frame()
+        now = time.perf_counter()
+        self.ends.append(now)
+        loading = self.window.loading
+        if loading is not None:
+            status = self.status = loading.build.status()
+            if "/" in status:
+                self.totals.add(status.split("/")[1].split()[0])
+            if self.window.viewer is not None:
+                self.slow.append((now - self.started, self.window.viewer.scene.time))
+        if now - self.started > FIRST_RUN_LIMIT:
+            raise TimeoutError("the first run ran out of time")
+
+    def gaps(self) -> tuple[float, float]:
+        """The longest wall time between two frames drawn (s), and when it ended (s from the start)."""
+        ends = [self.started, *self.ends]
+        gap, end = max((b - a, b) for a, b in zip(ends, ends[1:], strict=False))
+        return gap, end - self.started
+
+    def result(self) -> dict:
+        moved = self.slow[-1][1] - self.slow[0][1] if len(self.slow) > 1 else 0.0
+        wall = self.slow[-1][0] - self.slow[0][0] if len(self.slow) > 1 else 0.0
+        gap, at = self.gaps()
+        return {"frames": len(self.ends), "max_gap": gap, "max_gap_at": at, "totals": sorted(self.totals),
+                "slow_frames": len(self.slow), "slow_simulated": moved, "slow_wall": wall,
+                "first_step": self.window.first_step and self.window.first_step - self.started,
+                "build": self.status}  # fmt: skip
+
+
+def first_run_esc(out: Path) -> dict:
+    """A first run (an empty kernel cache: the caller sets TWIG_CACHE_DIR) with Esc pressed once the
+    scene has moved in slow motion for ``ESC_AFTER`` s: the frames' gaps and how soon Esc closed it."""
+    window = open_window("schoolyard", size=SIZE, screenshot_dir=out)
+    run = FirstRun(window)
+    assert window.loading is not None, "the kernel cache is not empty"
+    esc_after = float(os.environ.get("TWIG_ESC_AFTER", "12"))
+    try:
+        while not run.slow or run.slow[-1][0] - run.slow[0][0] < esc_after:
+            assert window.loading is not None, "the build ended before Esc"
+            run.frame()
+        subprocess.run(["xdotool", "mousemove", "--window", str(window._window), "5", "5"], check=True)
+        run.frame()
+        pressed = time.perf_counter()  # from before xdotool starts: its own start-up counts too
+        sent = subprocess.Popen(["xdotool", "key", "Escape"])
+        while sent.poll() is None and not window.closed:
+            run.frame()
+        sent.wait()
+        while not window.closed:
+            run.frame()
+            assert time.perf_counter() - pressed < 30, "Esc did nothing for 30 s"
+        return {**run.result(), "esc_s": time.perf_counter() - pressed}
+    finally:
+        window.close()
+
+
+def first_run_full(out: Path) -> dict:
+    """A first run (an empty kernel cache) drawn until the scene runs at full speed."""
+    window = open_window("schoolyard", size=SIZE, screenshot_dir=out)
+    run = FirstRun(window)
+    assert window.loading is not None, "the kernel cache is not empty"
+    try:
+        while window.loading is not None:
+            run.frame()
+        compiling = run.gaps()  # while the kernels compiled
+        for _ in range(30):
+            run.frame()
+        return {
+            **run.result(),
+            "full_speed": window.full_speed - run.started,
+            "max_gap_compiling": compiling[0],
+        }
+    finally:
+        window.close()
+
+
+SCENARIOS = {"sit": sit, "missed_grab": missed_grab, "slow": slow, "first_run_esc": first_run_esc,
+             "first_run_full": first_run_full}  # fmt: skip
 
 
 if __name__ == "__main__":

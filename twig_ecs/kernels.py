@@ -14,9 +14,12 @@ code; later runs load it in a blink. Three things are ours rather than numba's:
 - **When.** :class:`KernelBuild` compiles a scene's kernels into the cache in worker
   processes before the scene is loaded, so ``twig play`` can draw the progress in its
   window and ``run``/``render``/``serve`` print it. Two workers step the scene's
-  systems from opposite ends of the schedule; numba looks in the cache before it
-  compiles, so they meet in the middle and the compile takes about half the time on two
-  cores. Only the kernels the scene's systems call are compiled.
+  systems, one in the schedule's order and one starting with the systems that are
+  slowest as plain Python (so a window's slow motion speeds up soonest); numba looks in
+  the cache before it compiles, so they meet in the middle and the compile takes about
+  half the time on two cores. Only the kernels the scene's systems call are compiled,
+  and the build knows how many before the first one ends: one worker first steps the
+  scene once as plain Python, noting the kernels called (:func:`kernels_to_compile`).
 - **Saying so.** :func:`ensure_compiled` prints one line when a scene is stepped with
   kernels still to compile (the Python API path, which compiles in-process).
 
@@ -35,6 +38,7 @@ import sys
 import tempfile
 import threading
 import time
+import types
 from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
@@ -52,8 +56,6 @@ from twig_ecs.kernelcache import (  # noqa: F401 - the cache's public names, her
 
 _PACKAGE = kernelcache._PACKAGE
 
-#: Kernels a scene compiles when no earlier build says how many (the schoolyard: 20).
-DEFAULT_KERNEL_COUNT = 20
 #: What a :class:`KernelBuild` worker process runs.
 _WORKER_CODE = (
     "import sys, json; from twig_ecs.kernelworker import work; sys.exit(work(json.loads(sys.argv[1])))"
@@ -128,7 +130,8 @@ class KernelBuild:
         #: compiles twice has a second type specialisation, paid again on every first run
         self.compiles: list[tuple[int, str]] = []
         self.errors: list[str] = []
-        self.expected = _expected_count(self.source)
+        #: the names of the kernels this build compiles, once a worker has counted them (None before)
+        self.expected: frozenset[str] | None = None
         self.finished = False
         self._lines: queue.Queue = queue.Queue()
         self._claims = tempfile.mkdtemp(prefix="twig-ecs-claims-")
@@ -145,9 +148,12 @@ class KernelBuild:
             env["TWIG_CACHE_DIR"] = str(cache_folder().parent)  # the same folder, fallback included
         self._procs = []
         for k in range(count):
-            order = "reverse" if k % 2 else "forward"
+            # the last worker counts the kernels (a plain-Python step first) and, one of two,
+            # compiles the systems slowest as plain Python first; the first keeps the schedule's order
+            order = "cost" if k % 2 else "forward"
             proc = subprocess.Popen(
-                [sys.executable, "-P", "-c", _WORKER_CODE, json.dumps({**job, "order": order})],
+                [sys.executable, "-P", "-c", _WORKER_CODE,
+                 json.dumps({**job, "order": order, "count": k == count - 1})],
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
             )  # fmt: skip
             self._procs.append(proc)
@@ -178,12 +184,17 @@ class KernelBuild:
             if len(parts) == 3 and parts[0] == "compiled":
                 self.compiled.setdefault(parts[1], float(parts[2]))
                 self.compiles.append((worker, parts[1]))
+            elif len(parts) == 2 and parts[0] == "expect" and self.expected is None:
+                self.expected = frozenset(parts[1].split(","))
         if not self.finished and getattr(self, "_exited", 0) == len(self._procs):
             self.finished = True
             shutil.rmtree(self._claims, ignore_errors=True)
-            if not self.errors and self.compiled:
-                _remember_count(self.source, len(self.compiled))
         return self.finished
+
+    @property
+    def done(self) -> int:
+        """How many of the expected kernels are compiled (0 until they are counted)."""
+        return len(self.expected & self.compiled.keys()) if self.expected is not None else 0
 
     def wait(self, on_progress: Callable[[KernelBuild], None] | None = None, every: float = 0.1) -> None:
         """Block until the workers finish, calling ``on_progress`` as kernels complete."""
@@ -201,7 +212,9 @@ class KernelBuild:
         """How far along the build is, 0..1 (1 only when finished)."""
         if self.finished:
             return 1.0
-        return min(0.95, len(self.compiled) / max(1, self.expected))
+        if not self.expected:
+            return 0.0
+        return min(0.95, self.done / len(self.expected))
 
     @property
     def elapsed(self) -> float:
@@ -213,8 +226,12 @@ class KernelBuild:
         latest = next(reversed(self.compiled)) if self.compiled else "starting"
         if self.finished:
             return f"compiled {len(self.compiled)} physics kernels in {self.elapsed:.1f} s"
-        return (f"compiling physics kernels (first run only): {len(self.compiled)}/"
-                f"{max(self.expected, len(self.compiled))}  {latest}  {self.elapsed:.0f} s")  # fmt: skip
+        if self.expected is None:  # the total is shown once it is known, and never changes
+            return (
+                f"compiling physics kernels (first run only): counting them  {latest}  {self.elapsed:.0f} s"
+            )
+        return (f"compiling physics kernels (first run only): {self.done}/{len(self.expected)}  "
+                f"{latest}  {self.elapsed:.0f} s")  # fmt: skip
 
     def cancel(self) -> None:
         """Stop the workers (the window was closed while compiling)."""
@@ -263,6 +280,37 @@ def _cached_on_disk(kernel) -> bool:
     return bool(overloads) and all((folder / name).exists() for name in overloads.values())
 
 
+def callees(kernel) -> list:
+    """Our kernels that ``kernel``'s body calls (by a global name, or an attribute of a module).
+
+    Numba compiles each of them with the caller, whichever branch the call is in.
+    """
+    codes, names = [kernel.py_func.__code__], set()
+    while codes:
+        code = codes.pop()
+        names.update(code.co_names)
+        codes.extend(c for c in code.co_consts if isinstance(c, types.CodeType))
+    space = kernel.py_func.__globals__
+    modules = [v for v in space.values() if isinstance(v, types.ModuleType)]
+    found = [space[name] for name in names if name in space]
+    found += [getattr(m, name) for m in modules for name in names if hasattr(m, name)]
+    return [value for value in found if _ours(value)]
+
+
+def kernels_to_compile(called) -> frozenset[str]:
+    """The names of the kernels a build compiles for the kernels ``called`` from Python: those and
+    everything their bodies call, less the ``inline="always"`` ones (compiled into their callers)."""
+    seen: dict[str, object] = {}
+    todo = list(called)
+    while todo:
+        kernel = todo.pop()
+        name = kernel.py_func.__name__  # the name the workers report
+        if name not in seen:
+            seen[name] = kernel
+            todo.extend(callees(kernel))
+    return frozenset(n for n, k in seen.items() if k.targetoptions.get("inline", "never") == "never")
+
+
 class _FirstCall:
     """A kernel the workers have just cached, until its first call has loaded it.
 
@@ -283,14 +331,15 @@ class _FirstCall:
 class InterimKernels:
     """Lets a scene step while its kernels compile: plain Python until each one is cached.
 
-    A first run's :class:`KernelBuild` takes about 20 s. Meanwhile every reference to one of
-    our kernels in a loaded ``twig_ecs`` module is pointed at the kernel's Python function
-    (what ``NUMBA_DISABLE_JIT=1`` runs): nothing compiles in this process and the scene
-    steps at once, in slow motion (the schoolyard: about 60 ms a step instead of 2).
-    :meth:`update` points a kernel's references back at the compiled kernel as soon as the
-    workers have cached it, so the scene speeds up as the build goes on; :meth:`finish`
-    restores every reference. Both forms compute the same floats (no fastmath), so a run's
-    state hash does not depend on when each kernel switched.
+    A first run's :class:`KernelBuild` takes 20 s to a few minutes. Meanwhile every reference
+    to one of our kernels in a loaded ``twig_ecs`` module is pointed at the kernel's Python
+    function (what ``NUMBA_DISABLE_JIT=1`` runs): nothing compiles in this process and the
+    scene steps at once, in slow motion (the schoolyard: 0.2 s a step on a quiet machine
+    instead of 2 ms, 80% of it ``solve_collisions``). :meth:`update` points a kernel's
+    references back at the compiled kernel as soon as the workers have cached it (a kernel
+    that others call waits for :meth:`finish`), so the scene speeds up as the build goes
+    on; :meth:`finish` restores every reference. Both forms compute the same floats (no
+    fastmath), so a run's state hash does not depend on when each kernel switched.
     """
 
     def __init__(self) -> None:
@@ -303,6 +352,10 @@ class InterimKernels:
                     self._refs.setdefault(id(value), []).append((namespace, name))
                     self._kernels[id(value)] = value
         self.pending = set(self._kernels)  # kernels still stepped as plain Python
+        #: kernels other kernels call: they stay plain Python until :meth:`finish`. Called from a
+        #: parent's Python form they would get Python's argument types, not the compiled parent's,
+        #: and compile here, for seconds, instead of loading from the cache
+        self.nested = {id(c) for k in self._kernels.values() for c in callees(k)}
         self.active = False
         self._checked = 0.0
 
@@ -311,6 +364,10 @@ class InterimKernels:
         spaces = [(name, getattr(m, "__dict__", None)) for name, m in list(sys.modules.items())]
         mine = [ns for name, ns in spaces if everywhere or name.split(".")[0] == "twig_ecs"]
         return [ns for ns in mine if isinstance(ns, dict)]
+
+    def kernels(self) -> list:
+        """Every kernel whose references this object swaps."""
+        return list(self._kernels.values())
 
     def start(self) -> InterimKernels:
         """Point every kernel reference at its Python function."""
@@ -332,7 +389,7 @@ class InterimKernels:
         if not self.active or now - self._checked < every:
             return 0
         self._checked = now
-        ready = [key for key in self.pending if _cached_on_disk(self._kernels[key])]
+        ready = [key for key in self.pending - self.nested if _cached_on_disk(self._kernels[key])]
         for key in ready:
             self.pending.discard(key)
             self.point(self._kernels[key], _FirstCall(self, self._kernels[key]))
@@ -405,27 +462,3 @@ def _stderr_progress() -> Callable[[str], None]:
         sys.stderr.flush()
 
     return say
-
-
-def _counts_file() -> Path | None:
-    return None if cache_folder() is None else cache_folder() / "kernel-counts.json"
-
-
-def _expected_count(source: str) -> int:
-    path = _counts_file()
-    try:
-        return int(json.loads(path.read_text())[source])
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return DEFAULT_KERNEL_COUNT
-
-
-def _remember_count(source: str, count: int) -> None:
-    path = _counts_file()
-    if path is None:
-        return
-    try:
-        counts = json.loads(path.read_text()) if path.exists() else {}
-        counts[source] = count
-        path.write_text(json.dumps(counts))
-    except (OSError, ValueError):
-        pass  # only the progress bar's estimate
