@@ -47,6 +47,11 @@ def is_gentle(gentle, holder, thing):
     return False
 
 
+#: :func:`is_gentle` as plain Python, for the per-contact check made from Python: an inline
+#: kernel is never built ahead, so its first compiled call compiled mid-play (1.5 s under load).
+_is_gentle_in_python = getattr(is_gentle, "py_func", is_gentle)  # (no py_func with the JIT off)
+
+
 class SenseSystem(System):
     """Turns impacts into pain levels and contact/pain events."""
 
@@ -83,7 +88,7 @@ class SenseSystem(System):
             # one contact event per pair: the side with the lower index reports it
             if c < other or int(col.hit_by[other]) != c:
                 ctx.emit(Contact(body_e, part, other_e, other_part, energy))
-            if energy >= bodies.pain_threshold[b] and not is_gentle(s.gentle, b, ob):
+            if energy >= bodies.pain_threshold[b] and not _is_gentle_in_python(s.gentle, b, ob):
                 level = float(bodies.pain[b])
                 ctx.emit(Pain(body_e, part, other_e, energy, level))
 
