@@ -40,6 +40,7 @@ from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
 from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
+from twig_ecs.threads import ThreadChoice
 from twig_ecs.trust import trusting
 from twig_ecs.validate import seed as seed_value
 from twig_ecs.validate import suggest
@@ -95,6 +96,7 @@ class Scene:
         self._closed = False
         self.schedule = Schedule()
         self._installed: list[System] | None = None
+        self._threads = ThreadChoice()  # how many threads its steps use (measured; twig_ecs.threads)
         # characters that were given goals (entity -> Mind), pruned when their goals run
         # out: goal-driven behaviours look only at these (see goal_holders)
         self._goal_holders: dict[int, Mind] = {}
@@ -296,6 +298,11 @@ class Scene:
     # -- running ----------------------------------------------------------------------
 
     @property
+    def thread_choice(self) -> ThreadChoice:
+        """How many threads this scene's steps use and what its trials measured (``summary()``)."""
+        return self._threads
+
+    @property
     def time(self) -> float:
         """Simulated time (s) since the scene started: frame * dt."""
         return self.frame * self.dt
@@ -326,9 +333,13 @@ class Scene:
                 self._install()
         ensure_compiled()
         state, dt = self.state, self.dt
+        threads, clock = self._threads, time.perf_counter
         for _ in range(n):
             with STEP_LOCK:
+                threads.begin(state.bodies.count)
+                started = clock()
                 self._step_once(state, dt, times)
+                threads.end(clock() - started)
 
     def _step_once(self, state: PhysicsState, dt: float, times: dict[str, list[float]] | None) -> None:
         """One step of :meth:`step` (under :data:`STEP_LOCK`)."""

@@ -52,6 +52,7 @@ from twig_ecs.errors import TwigError
 from twig_ecs.files import read_bounded
 from twig_ecs.kernels import ensure_compiled
 from twig_ecs.store import check_store
+from twig_ecs.threads import ThreadChoice
 from twig_ecs.trust import UntrustedCode, check_snapshot_plugin, is_trusted, module_allowed
 from twig_ecs.version import __version__
 
@@ -69,7 +70,7 @@ MAX_BYTES = 256 << 20
 #: The largest meta (scene name, plug-in list, dropped subscribers...).
 MAX_META_BYTES = 1 << 20
 #: Scene attributes that belong to this process, not to the world.
-_TRANSIENT = ("_world", "_installed", "_closed")
+_TRANSIENT = ("_world", "_installed", "_closed", "_threads")
 
 
 class SnapshotError(TwigError):
@@ -271,6 +272,7 @@ def restore(data: bytes):
     scene._world = esperworld.new_world_name()  # noqa: SLF001
     scene._closed = False  # noqa: SLF001
     scene._installed = None  # noqa: SLF001 - systems are re-installed as esper processors
+    scene._threads = ThreadChoice()  # noqa: SLF001 - measured afresh in this process
     previous = esper.current_world
     scene.activate()
     try:

@@ -79,6 +79,7 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
             "colliders": int(state.colliders.count),
             "candidate_pairs": int(state.n_pairs),
             "nan": bool(np.isnan(positions).any()),
+            "threads": scene.thread_choice.summary(),
         }
         | ({"beside": summary(other)} if beside is not None else {})
     )
