@@ -1,19 +1,23 @@
-"""Step times on a busy machine and a quiet one: numba's threads against one thread.
+"""Step times on a busy machine and a quiet one: twig's thread choice against one thread.
 
 Users' machines are never quiet. This runs ``twig bench`` cases in fresh processes, in
 turn (alternating, so every setting meets the same moments of the machine's load), under
 each thread setting, once with nothing beside it and once with ``--burners`` CPU-bound
-processes beside it, and prints the median step times and their ratio to one thread:
+processes beside it, and prints the median step times, their ratio to one thread, and the
+share of timed steps the default ran on more than one thread:
 
     python benchmarks/busy_machine.py                          # approach 100 and 1000, crowd 300
-    python benchmarks/busy_machine.py --cases crowd --sizes 300 --rounds 5 --json
-    python benchmarks/busy_machine.py --settings default,one,spin   # spin: libgomp's old busy-wait
+    python benchmarks/busy_machine.py --cases crowd --sizes 1000 --rounds 5 --json
+    python benchmarks/busy_machine.py --settings default,one,all,spin
 
-Settings: ``default`` is what a user gets (twig's own threading choice), ``one`` is
-``NUMBA_NUM_THREADS=1``; ``spin`` is the default with libgomp's active waiting forced back
-on (``OMP_WAIT_POLICY=ACTIVE``), the behaviour before twig chose a passive wait. The
-target (issue 33): with two burners, no case is more than 1.15x its one-thread time, and
-on a quiet machine threads still help where they helped.
+Settings: ``default`` is what a user gets (each scene measures whether threads pay:
+``twig_ecs.threads``), ``one`` is ``NUMBA_NUM_THREADS=1``, ``all`` is every thread on every
+step (``TWIG_THREADS``: twig's behaviour before the measured choice, threads asleep when
+idle), ``spin`` the same with libgomp's busy-wait forced on (``OMP_WAIT_POLICY=ACTIVE``:
+the behaviour before twig chose a passive wait). The thread variables of the calling shell
+(``NUMBA_NUM_THREADS``, ``TWIG_THREADS``, ``OMP_WAIT_POLICY``) are not passed on: each
+setting is only its own. The target (issue 33): with two burners, no case is more than
+1.15x its one-thread time, and on a quiet machine threads still help where they helped.
 """
 
 from __future__ import annotations
@@ -27,12 +31,15 @@ import subprocess
 import sys
 import time
 
+ALL = str(os.cpu_count() or 1)
 SETTINGS = {
     "default": {},
     "one": {"NUMBA_NUM_THREADS": "1"},
-    "spin": {"OMP_WAIT_POLICY": "ACTIVE"},
-    "passive": {"OMP_WAIT_POLICY": "PASSIVE"},
+    "all": {"TWIG_THREADS": ALL},
+    "spin": {"TWIG_THREADS": ALL, "OMP_WAIT_POLICY": "ACTIVE"},
 }
+#: Left out of the environment the runs inherit: a setting is only its own.
+THREAD_VARIABLES = ("NUMBA_NUM_THREADS", "TWIG_THREADS", "OMP_WAIT_POLICY", "GOMP_SPINCOUNT")
 
 
 def burn(stop: multiprocessing.Event) -> None:  # type: ignore[valid-type]
@@ -43,18 +50,20 @@ def burn(stop: multiprocessing.Event) -> None:  # type: ignore[valid-type]
             x = (x * 1103515245 + 12345) & 0x7FFFFFFF
 
 
-def bench_once(case: str, size: int, steps: int, setting: str) -> float:
-    """Median ms per step of one case in a fresh process under one thread setting."""
-    env = {**os.environ, **SETTINGS[setting]}
+def bench_once(case: str, size: int, steps: int, setting: str) -> tuple[float, float]:
+    """Median ms per step of one case in a fresh process under one thread setting, and the
+    share of its steps on more than one thread."""
+    env = {k: v for k, v in os.environ.items() if k not in THREAD_VARIABLES} | SETTINGS[setting]
     command = [sys.executable, "-m", "twig_ecs", "bench", "--cases", case, "--sizes", str(size),
                "--steps", str(steps), "--warmup", "30", "--no-mujoco", "--json"]  # fmt: skip
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=1800, check=True)
     (result,) = json.loads(done.stdout)["cases"]
-    return result["median_ms"]
+    return result["median_ms"], result["threads"]["threaded_share"]
 
 
 def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, steps: int, burners: int) -> dict:
-    """{case: {setting: [median ms per round]}}, rounds alternating the settings."""
+    """{case: {setting: [median ms per round]}}, rounds alternating the settings; the shares of
+    threaded steps under {case: {"threaded": {setting: [share per round]}}}."""
     stop = multiprocessing.Event()
     procs = [multiprocessing.Process(target=burn, args=(stop,), daemon=True) for _ in range(burners)]
     for p in procs:
@@ -64,13 +73,16 @@ def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, step
         for case, size in cases:
             label = f"{case} {size}"
             times: dict[str, list[float]] = {s: [] for s in settings}
+            shares: dict[str, list[float]] = {s: [] for s in settings}
             for r in range(rounds):
                 for setting in settings if r % 2 == 0 else reversed(settings):
-                    ms = bench_once(case, size, steps, setting)
+                    ms, share = bench_once(case, size, steps, setting)
                     times[setting].append(ms)
-                    print(f"  {label:14s} {setting:8s} round {r + 1}/{rounds}: {ms:8.2f} ms/step "
-                          f"(load {os.getloadavg()[0]:.1f})", file=sys.stderr, flush=True)  # fmt: skip
-            out[label] = times
+                    shares[setting].append(share)
+                    print(f"  {label:14s} {setting:8s} round {r + 1}/{rounds}: {ms:8.2f} ms/step, "
+                          f"{share:4.0%} threaded (load {os.getloadavg()[0]:.1f})", file=sys.stderr,
+                          flush=True)  # fmt: skip
+            out[label] = times | {"threaded": shares}
         return out
     finally:
         stop.set()
@@ -79,14 +91,17 @@ def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, step
 
 
 def report(title: str, results: dict, settings: list[str]) -> None:
-    """A table: median of the rounds' medians, and the ratio to one thread."""
+    """A table: median of the rounds' medians, the ratio to one thread, and the share of the
+    default's steps on more than one thread (all rounds)."""
     print(f"\n{title}")
-    print(f"{'case':16s}" + "".join(f"{s:>12s}" for s in settings) + "".join(
-        f"{s + '/one':>13s}" for s in settings if s != "one"))  # fmt: skip
+    threaded = "default" in settings
+    heads = [f"{s:>12s}" for s in settings] + [f"{s + '/one':>13s}" for s in settings if s != "one"]
+    print(f"{'case':16s}" + "".join(heads) + ("   threaded" if threaded else ""))
     for label, times in results.items():
-        med = {s: statistics.median(v) for s, v in times.items()}
+        med = {s: statistics.median(times[s]) for s in settings}
         ratios = "".join(f"{med[s] / med['one']:13.2f}" for s in settings if s != "one" and "one" in med)
-        print(f"{label:16s}" + "".join(f"{med[s]:12.2f}" for s in settings) + ratios)
+        share = f"{statistics.mean(times['threaded']['default']):11.0%}" if threaded else ""
+        print(f"{label:16s}" + "".join(f"{med[s]:12.2f}" for s in settings) + ratios + share)
 
 
 def main() -> None:
@@ -95,7 +110,7 @@ def main() -> None:
     parser.add_argument("--cases", default="approach,approach,crowd", help="bench cases, paired with --sizes")
     parser.add_argument("--sizes", default="100,1000,300", help="one size per case")
     parser.add_argument("--settings", default="default,one", help=f"from {', '.join(SETTINGS)}")
-    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds per setting")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating rounds per setting")
     parser.add_argument("--steps", type=int, default=150, help="timed steps per run")
     parser.add_argument("--burners", type=int, default=2, help="CPU-bound processes for the busy run")
     parser.add_argument("--busy-only", action="store_true", help="skip the quiet run")
