@@ -61,6 +61,71 @@ def bench_once(case: str, size: int, steps: int, setting: str) -> tuple[float, f
     return result["median_ms"], result["threads"]["threaded_share"]
 
 
+#: Steps each setting takes in a row in ``--interleave`` runs (a setting switch costs a little).
+BLOCK = 10
+
+
+def interleaved_child(case: str, size: int, steps: int, settings: list[str]) -> dict:
+    """In this process: one scene of the case, its settings taking turns a block of steps at a
+    time (each setting a thread choice of its own), so every setting meets the same moments
+    of the load. ``one`` is one thread (``TWIG_THREADS=1``'s choice, not ``NUMBA_NUM_THREADS``:
+    the pool exists but sleeps). Returns {setting: [step seconds]} and the default's share."""
+    from twig_ecs.bench import cases
+    from twig_ecs.bench.run import SIZED
+    from twig_ecs.threads import ThreadChoice, usable_threads
+
+    scene = getattr(cases, SIZED[case])(size)
+    most = usable_threads()
+    choices = {"default": ThreadChoice(), "one": ThreadChoice(fixed=1), "all": ThreadChoice(fixed=most)}
+    times: dict[str, list[float]] = {s: [] for s in settings}
+    scene.thread_choice = choices["default"]
+    scene.step(30)  # warm-up (the default's first trial)
+    counted = choices["default"].steps, choices["default"].threaded
+    rotation = 0
+    while min(len(t) for t in times.values()) < steps:
+        for setting in settings[rotation:] + settings[:rotation]:
+            scene.thread_choice = choices[setting]
+            scene.step(1)  # (a switch rebuilds the constraint plan: untimed)
+            for _ in range(BLOCK):
+                started = time.perf_counter()
+                scene.step(1)
+                times[setting].append(time.perf_counter() - started)
+        rotation = (rotation + 1) % len(settings)
+    default = choices["default"]
+    share = (default.threaded - counted[1]) / max(1, default.steps - counted[0])
+    scene.close()
+    return {"times": times, "threaded": share, "trials": default.trials}
+
+
+def interleaved(cases: list[tuple[str, int]], settings: list[str], steps: int, burners: int) -> dict:
+    """{case: {setting: [median ms]}, "threaded": {"default": [share]}} from one fresh process per
+    case (:func:`interleaved_child`) with ``burners`` CPU-bound processes beside it."""
+    if "spin" in settings:
+        raise SystemExit("--interleave cannot run 'spin' (a wait policy is one per process)")
+    stop = multiprocessing.Event()
+    procs = [multiprocessing.Process(target=burn, args=(stop,), daemon=True) for _ in range(burners)]
+    for p in procs:
+        p.start()
+    env = {k: v for k, v in os.environ.items() if k not in THREAD_VARIABLES}
+    try:
+        out: dict = {}
+        for case, size in cases:
+            command = [sys.executable, __file__, "--child", case, str(size), str(steps), ",".join(settings)]
+            done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=3600, check=True)
+            result = json.loads(done.stdout)
+            label = f"{case} {size}"
+            out[label] = {s: [statistics.median(t) * 1000.0] for s, t in result["times"].items()}
+            out[label]["threaded"] = {"default": [result["threaded"]]}
+            meds = "  ".join(f"{s} {v[0]:.2f}" for s, v in out[label].items() if s != "threaded")
+            line = f"{meds} ms/step, {result['threaded']:4.0%} threaded, {result['trials']} trials"
+            print(f"  {label:14s} {line} (load {os.getloadavg()[0]:.1f})", file=sys.stderr, flush=True)
+        return out
+    finally:
+        stop.set()
+        for p in procs:
+            p.join(timeout=5)
+
+
 def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, steps: int, burners: int) -> dict:
     """{case: {setting: [median ms per round]}}, rounds alternating the settings; the shares of
     threaded steps under {case: {"threaded": {setting: [share per round]}}}."""
@@ -115,7 +180,15 @@ def main() -> None:
     parser.add_argument("--burners", type=int, default=2, help="CPU-bound processes for the busy run")
     parser.add_argument("--busy-only", action="store_true", help="skip the quiet run")
     parser.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    parser.add_argument("--interleave", action="store_true",
+                        help=f"one process per case, the settings taking turns {BLOCK} steps at a time "
+                             "(less noise on a shared machine than whole runs in turn)")  # fmt: skip
+    parser.add_argument("--child", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.child:
+        case, size, steps, settings = args.child
+        print(json.dumps(interleaved_child(case, int(size), int(steps), settings.split(","))))
+        return
     cases = list(zip(args.cases.split(","), (int(s) for s in args.sizes.split(",")), strict=True))
     settings = args.settings.split(",")
     unknown = [s for s in settings if s not in SETTINGS]
@@ -123,17 +196,22 @@ def main() -> None:
         parser.error(f"unknown setting(s) {', '.join(unknown)}; known: {', '.join(SETTINGS)}")
     started = time.time()
     runs = {}
-    if not args.busy_only:
-        print("quiet (nothing of ours beside it):", file=sys.stderr)
-        runs["quiet"] = measure(cases, settings, args.rounds, args.steps, 0)
-    print(f"busy ({args.burners} CPU-bound processes beside it):", file=sys.stderr)
-    runs["busy"] = measure(cases, settings, args.rounds, args.steps, args.burners)
+    rounds = 1 if args.interleave else args.rounds
+    for name, burners in ([] if args.busy_only else [("quiet", 0)]) + [("busy", args.burners)]:
+        print(f"{name} ({burners} CPU-bound processes of ours beside it):", file=sys.stderr)
+        if args.interleave:
+            runs[name] = interleaved(cases, settings, args.steps, burners)
+        else:
+            runs[name] = measure(cases, settings, args.rounds, args.steps, burners)
     if args.json:
-        print(json.dumps({"cpus": os.cpu_count(), "burners": args.burners, "runs": runs}, indent=1))
+        print(json.dumps({"cpus": os.cpu_count(), "burners": args.burners, "interleave": args.interleave,
+                          "runs": runs}, indent=1))  # fmt: skip
         return
     for name, results in runs.items():
-        report(f"{name} ({os.cpu_count()} CPUs, median ms/step of {args.rounds} alternating rounds)",
-               results, settings)  # fmt: skip
+        how = f"{rounds} alternating rounds"
+        if args.interleave:
+            how = f"{BLOCK}-step blocks in turn, one process"
+        report(f"{name} ({os.cpu_count()} CPUs, median ms/step, {how})", results, settings)
     print(f"\n({time.time() - started:.0f} s)")
 
 

@@ -299,8 +299,13 @@ class Scene:
 
     @property
     def thread_choice(self) -> ThreadChoice:
-        """How many threads this scene's steps use and what its trials measured (``summary()``)."""
+        """How many threads this scene's steps use and what its trials measured (``summary()``);
+        assign another (``ThreadChoice``) to choose differently from the next step on."""
         return self._threads
+
+    @thread_choice.setter
+    def thread_choice(self, choice: ThreadChoice) -> None:
+        self._threads = choice
 
     @property
     def time(self) -> float:

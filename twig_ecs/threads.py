@@ -129,9 +129,11 @@ class ThreadChoice:
     uses never changes what it computes.
     """
 
-    def __init__(self, most: int | None = None) -> None:
+    def __init__(self, most: int | None = None, fixed: int | None = None) -> None:
+        """``most``: the threads to try (default: :func:`usable_threads`); ``fixed``: always
+        this many (default: ``TWIG_THREADS``'s choice, ``auto`` measuring)."""
         self.most = usable_threads() if most is None else most
-        self.fixed = fixed_threads()  # (TWIG_THREADS; None: measure)
+        self.fixed = fixed_threads() if fixed is None else fixed  # (None: measure)
         self.threads = 1  # the choice between trials
         self.steps = 0  # steps taken (on the main thread, by a scene big enough to split)
         self.threaded = 0  # ... of them on more than one thread
@@ -142,6 +144,7 @@ class ThreadChoice:
         self._plan: list[int] = []  # thread counts of the trial steps still to come
         self._times: dict[int, list[float]] = {}
         self._now = 0  # this step's count; 0: not counted (another thread, a small scene)
+        self._trying = False  # this step is a trial's
         self._slow = 0
 
     def begin(self, bodies: int) -> int:
@@ -153,13 +156,15 @@ class ThreadChoice:
             self._now = 0
             _use(1)  # (one count per scene keeps its constraint plan: see constrain.constraints_of)
             return 1
+        self._trying = False
         if self.fixed is not None:
             n = min(self.fixed, self.most)
         else:
             if not self._plan and self.steps >= self._next_trial:
                 self._plan = [one or self.most for one in TRIAL_ORDER for _ in range(TRIAL_BLOCK)]
                 self._times = {1: [], self.most: []}
-            n = self._plan[0] if self._plan else self.threads
+            self._trying = bool(self._plan)
+            n = self._plan[0] if self._trying else self.threads
         self._now = n
         _use(n)
         return n
@@ -171,7 +176,7 @@ class ThreadChoice:
             return
         self.steps += 1
         self.threaded += n > 1
-        if self._plan:
+        if self._trying:
             self._times[self._plan.pop(0)].append(seconds)
             if not self._plan:
                 self._decide()
