@@ -97,6 +97,16 @@ def interleaved_child(case: str, size: int, steps: int, settings: list[str]) -> 
     return {"times": times, "threaded": share, "trials": default.trials}
 
 
+def paired_ratios(times: dict[str, list[float]]) -> dict[str, float]:
+    """Each setting's time over one thread's, as the median over the rounds of the ratio of the
+    two blocks' medians in that round (blocks of one round are at most a few seconds apart:
+    a load that comes and goes within a run meets both)."""
+    blocks = {s: [statistics.median(t[i : i + BLOCK]) for i in range(0, len(t) - BLOCK + 1, BLOCK)]
+              for s, t in times.items()}  # fmt: skip
+    return {s: statistics.median(b / one for b, one in zip(blocks[s], blocks["one"], strict=False))
+            for s in times if s != "one"}  # fmt: skip
+
+
 def interleaved(cases: list[tuple[str, int]], settings: list[str], steps: int, burners: int) -> dict:
     """{case: {setting: [median ms]}, "threaded": {"default": [share]}} from one fresh process per
     case (:func:`interleaved_child`) with ``burners`` CPU-bound processes beside it."""
@@ -116,8 +126,10 @@ def interleaved(cases: list[tuple[str, int]], settings: list[str], steps: int, b
             label = f"{case} {size}"
             out[label] = {s: [statistics.median(t) * 1000.0] for s, t in result["times"].items()}
             out[label]["threaded"] = {"default": [result["threaded"]]}
-            meds = "  ".join(f"{s} {v[0]:.2f}" for s, v in out[label].items() if s != "threaded")
-            line = f"{meds} ms/step, {result['threaded']:4.0%} threaded, {result['trials']} trials"
+            out[label]["paired"] = paired_ratios(result["times"])
+            meds = "  ".join(f"{s} {out[label][s][0]:.2f}" for s in settings)
+            ratios = "  ".join(f"{s}/one {r:.2f}" for s, r in out[label]["paired"].items())
+            line = f"{meds} ms/step ({ratios}), {result['threaded']:4.0%} threaded, {result['trials']} trials"
             print(f"  {label:14s} {line} (load {os.getloadavg()[0]:.1f})", file=sys.stderr, flush=True)
         return out
     finally:
@@ -156,15 +168,19 @@ def measure(cases: list[tuple[str, int]], settings: list[str], rounds: int, step
 
 
 def report(title: str, results: dict, settings: list[str]) -> None:
-    """A table: median of the rounds' medians, the ratio to one thread, and the share of the
-    default's steps on more than one thread (all rounds)."""
+    """A table: median of the rounds' medians, the ratio to one thread (``--interleave``: the
+    median of each round's ratio, :func:`paired_ratios`), and the share of the default's
+    steps on more than one thread (all rounds)."""
     print(f"\n{title}")
     threaded = "default" in settings
     heads = [f"{s:>12s}" for s in settings] + [f"{s + '/one':>13s}" for s in settings if s != "one"]
     print(f"{'case':16s}" + "".join(heads) + ("   threaded" if threaded else ""))
     for label, times in results.items():
         med = {s: statistics.median(times[s]) for s in settings}
-        ratios = "".join(f"{med[s] / med['one']:13.2f}" for s in settings if s != "one" and "one" in med)
+        ratio = times.get("paired") or {
+            s: med[s] / med["one"] for s in settings if s != "one" and "one" in med
+        }
+        ratios = "".join(f"{ratio[s]:13.2f}" for s in settings if s in ratio)
         share = f"{statistics.mean(times['threaded']['default']):11.0%}" if threaded else ""
         print(f"{label:16s}" + "".join(f"{med[s]:12.2f}" for s in settings) + ratios + share)
 
