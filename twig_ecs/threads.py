@@ -60,8 +60,8 @@ TRIAL_BLOCK = 3
 #: More threads are kept only if their median step is this much faster than one thread's:
 #: a tie goes to one thread, which leaves the other cores to the user's other programs.
 MARGIN = 0.05
-#: On more threads, this many steps in a row slower than SLOWER x the last trial's one-thread
-#: median start a trial at once (the machine got busy since).
+#: On more threads, this many steps in a row slower than SLOWER x the last trial's median on
+#: them start a trial at once (the machine got busy since).
 GIVE_UP = 3
 SLOWER = 1.5
 
@@ -125,8 +125,8 @@ class ThreadChoice:
     :meth:`begin` before a step sets numba's count (on the main thread only: numba's pool
     is not entered from others, whose steps run on one thread anyway); :meth:`end` after it
     takes the step's wall time. A trial times alternating blocks of steps (``TRIAL_ORDER``)
-    and keeps all threads only if their median is ``MARGIN`` faster. Which count a step
-    uses never changes what it computes.
+    and moves to all threads only if their median is ``MARGIN`` faster in two trials in a
+    row. Which count a step uses never changes what it computes.
     """
 
     def __init__(self, most: int | None = None, fixed: int | None = None) -> None:
@@ -145,6 +145,7 @@ class ThreadChoice:
         self._times: dict[int, list[float]] = {}
         self._now = 0  # this step's count; 0: not counted (another thread, a small scene)
         self._trying = False  # this step is a trial's
+        self._confirming = False  # the last trial found threads faster: the next one checks
         self._slow = 0
 
     def begin(self, bodies: int) -> int:
@@ -181,22 +182,31 @@ class ThreadChoice:
             if not self._plan:
                 self._decide()
         elif n > 1 and self.fixed is None:
-            self._slow = self._slow + 1 if seconds > SLOWER * self.last_trial[1] else 0
+            self._slow = self._slow + 1 if seconds > SLOWER * self.last_trial[n] else 0
             if self._slow >= GIVE_UP:
                 self._next_trial = self.steps  # busy now: try again at once
                 self._slow = 0
 
     def _decide(self) -> None:
-        """Keep the faster setting of the trial just run; set when to try again."""
+        """Keep the faster setting of the trial just run; set when to try again. A move from one
+        thread to more needs two trials in a row that find threads faster: one trial's few
+        steps on a shared machine can be unlucky, and threads that do not pay cost much more
+        (2.5x, 100 approachers) than one thread where threads would pay (a few tens of %)."""
         self.trials += 1
         self.last_trial = {n: statistics.median(t) for n, t in self._times.items()}
         one, many = self.last_trial[1], self.last_trial[self.most]
+        faster = many < (1.0 - MARGIN) * one
+        self._slow = 0
+        if faster and self.threads == 1 and not self._confirming:
+            self._confirming = True
+            self._next_trial = self.steps  # (again at once)
+            return
+        self._confirming = False
         kept_one = self.threads == 1
-        self.threads = self.most if many < (1.0 - MARGIN) * one else 1
+        self.threads = self.most if faster else 1
         # one thread again: the machine or the scene is as it was, so look less often
         self._wait = min(2 * self._wait, LONGEST_WAIT) if kept_one and self.threads == 1 else TRIAL_EVERY
         self._next_trial = self.steps + self._wait
-        self._slow = 0
 
     def summary(self) -> dict:
         """What was chosen: the share of counted steps on more threads, the trials and the last
