@@ -9,6 +9,7 @@ import pytest
 from helpers import angle_about_y, knee_hyperextension, max_overlap_between_bodies, total_momentum
 
 from twig_ecs import Scene
+from twig_ecs.threads import usable_threads
 
 NO_DAMPING = {"air": 0.0, "ground": 0.0}
 
@@ -242,17 +243,20 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
         assert [order[p] for p in kept] == sorted(order[p] for p in kept)
 
 
+@pytest.mark.skipif(usable_threads() < 2, reason="one usable thread (NUMBA_NUM_THREADS=1?): nothing to split")
 def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state(monkeypatch, scenes):
     """A crowd big enough for the threaded passes (a grab joint among them: a body pair that must
     wait its turn) steps to the last bit as on one thread; scenes stepped from other threads at
     the same time run their passes on one thread (numba's pool takes one caller at a time) and
     take turns a step at a time (Scene.STEP_LOCK).
-    Every scene is closed even when an assertion fails (the ``scenes`` fixture)."""
+    Every scene is closed even when an assertion fails (the ``scenes`` fixture). Threads are
+    fixed (``TWIG_THREADS``): measured, the choice might keep one thread throughout."""
     import threading
 
     from twig_ecs.bench.cases import crowd
     from twig_ecs.systems.physics import constrain
 
+    monkeypatch.setenv("TWIG_THREADS", str(usable_threads()))
     size = constrain.PARALLEL_BODIES + 20
 
     def world() -> Scene:
@@ -264,8 +268,9 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
         return scene
 
     threaded = world()
+    threaded.step(1)  # (the step sets the thread count its constraint plan is made for)
     assert constrain.constraints_of(threaded.state)[4][4], "this crowd's passes are split across threads"
-    threaded.step(90)
+    threaded.step(89)
     chunks, groups = constrain.constraints_of(threaded.state)[4][:2]
     runs = np.diff(groups)
     assert runs.max() >= constrain.PARALLEL_BODIES and (runs == 1).any(), "bodies share runs; the joint waits"

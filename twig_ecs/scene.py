@@ -40,6 +40,7 @@ from twig_ecs.spawn import spawn_body
 from twig_ecs.step import StepContext
 from twig_ecs.store import PhysicsState
 from twig_ecs.system import System
+from twig_ecs.threads import ThreadChoice
 from twig_ecs.trust import trusting
 from twig_ecs.validate import seed as seed_value
 from twig_ecs.validate import suggest
@@ -104,6 +105,7 @@ class Scene:
         _OPEN.add(self)
         self.schedule = Schedule()
         self._installed: list[System] | None = None
+        self._threads = ThreadChoice()  # how many threads its steps use (measured; twig_ecs.threads)
         # characters that were given goals (entity -> Mind), pruned when their goals run
         # out: goal-driven behaviours look only at these (see goal_holders)
         self._goal_holders: dict[int, Mind] = {}
@@ -298,6 +300,16 @@ class Scene:
     # -- running ----------------------------------------------------------------------
 
     @property
+    def thread_choice(self) -> ThreadChoice:
+        """How many threads this scene's steps use and what its trials measured (``summary()``);
+        assign another (``ThreadChoice``) to choose differently from the next step on."""
+        return self._threads
+
+    @thread_choice.setter
+    def thread_choice(self, choice: ThreadChoice) -> None:
+        self._threads = choice
+
+    @property
     def time(self) -> float:
         """Simulated time (s) since the scene started: frame * dt."""
         return self.frame * self.dt
@@ -324,9 +336,13 @@ class Scene:
                 self._install()
         ensure_compiled()
         state, dt = self.state, self.dt
+        threads, clock = self._threads, time.perf_counter
         for _ in range(n):
             with STEP_LOCK:
+                threads.begin(state.bodies.count)
+                started = clock()
                 self._step_once(state, dt, times)
+                threads.end(clock() - started)
 
     def _step_once(self, state: PhysicsState, dt: float, times: dict[str, list[float]] | None) -> None:
         """One step of :meth:`step` (under :data:`STEP_LOCK`)."""
@@ -522,6 +538,7 @@ class Scene:
         """Open a scene just read from a snapshot (whose process-bound parts were left out)."""
         self._closed = False
         self._installed = None  # the schedule's order is read again at the first step
+        self._threads = ThreadChoice()  # measured afresh in this process
         _OPEN.add(self)
 
     def close(self) -> None:

@@ -70,7 +70,7 @@ MAX_BYTES = 256 << 20
 #: The largest meta (scene name, plug-in list, dropped subscribers...).
 MAX_META_BYTES = 1 << 20
 #: Scene attributes that belong to this process, not to the world.
-_TRANSIENT = ("_installed", "_closed")
+_TRANSIENT = ("_installed", "_closed", "_threads")
 
 
 class SnapshotError(TwigError):

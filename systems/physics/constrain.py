@@ -31,6 +31,7 @@ from twig_ecs.store import (
     gripped_nodes,
 )
 from twig_ecs.system import System
+from twig_ecs.threads import PARALLEL_BODIES
 
 #: Speed (m/s) at which a new grab joint draws its two nodes together.
 GRAB_CLOSING = 0.6
@@ -40,12 +41,10 @@ CONTACT_SLOP = 1e-3
 #: (:func:`lift_out_of_ground`). The schoolyard's nodes end a step at most a millimetre or two
 #: under (feet after its first step, a knee now and then): for them nothing changes.
 GROUND_SLOP = 0.01
-#: Bodies from which the link and limit passes split by body across threads: a body's rows
-#: touch only its own nodes, so bodies can be projected at once and come out to the last
-#: bit as one after the other would leave them. Fewer bodies are done on one thread: a
-#: parallel region's start costs more than a small scene's pass (on 2 cores the schoolyard,
-#: 22 bodies, steps 8% slower on two threads, 30 approachers 7% faster, 100 over 20%).
-PARALLEL_BODIES = 32
+# PARALLEL_BODIES (imported above): bodies from which the link and limit passes split by body
+# across threads. A body's rows touch only its own nodes, so bodies can be projected at once
+# and come out to the last bit as one after the other would leave them. Fewer bodies are done
+# on one thread; above it each scene measures whether threads pay (twig_ecs.threads).
 
 
 # -- what the kernels take: named views of the store's columns (the arrays themselves, not

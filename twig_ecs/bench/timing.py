@@ -29,6 +29,12 @@ def summary(seconds: np.ndarray) -> dict:
     return {"median_ms": float(np.median(ms)), "p95_ms": float(ms[int(0.95 * (len(ms) - 1))])}
 
 
+def _share(choice, counted: tuple[int, int]) -> float:
+    """The share of steps on more than one thread since ``counted`` (steps, threaded steps)."""
+    steps = choice.steps - counted[0]
+    return (choice.threaded - counted[1]) / steps if steps else 0.0
+
+
 #: Steps each simulator takes in a row when two are compared: long enough that caches
 #: are warm again after the other one ran, short enough that both meet the same load.
 BLOCK = 10
@@ -40,7 +46,9 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
 
     Returns median and 95th-percentile step time, the median of every system, the
     per-group medians (physics, behaviour, control: the median of each step's group
-    sum), and the scene's size. ``beside`` (another simulator's timed step, returning
+    sum), the scene's size and its thread choice (``threads``: see
+    :meth:`~twig_ecs.threads.ThreadChoice.summary`; ``threaded_share`` of the timed steps
+    only). ``beside`` (another simulator's timed step, returning
     seconds) takes turns with ours, ``BLOCK`` steps each, so both meet the same machine
     load - on a shared machine the only fair comparison; its summary is under
     ``"beside"``.
@@ -49,6 +57,8 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
         scene.step()
         if beside is not None:
             beside()
+    choice = scene.thread_choice
+    counted = (choice.steps, choice.threaded)  # (the timed steps' share of threaded steps, below)
     times: dict[str, list[float]] = {}
     totals = np.empty(steps)
     other = np.empty(steps)
@@ -79,6 +89,7 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
             "colliders": int(state.colliders.count),
             "candidate_pairs": int(state.n_pairs),
             "nan": bool(np.isnan(positions).any()),
+            "threads": choice.summary() | {"threaded_share": _share(choice, counted)},
         }
         | ({"beside": summary(other)} if beside is not None else {})
     )
