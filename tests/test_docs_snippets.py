@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from server_helpers import running_server
 
-from twig_ecs import Scene
+from twig_ecs.scene import open_scenes
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = [ROOT / "README.md", ROOT / "ARCHITECTURE.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -45,6 +45,7 @@ def test_python_snippets_run_as_written(doc, capsys):
     module = types.ModuleType("docs_snippet")  # a real module: dataclasses look their own up
     sys.modules[module.__name__] = module
     namespace = module.__dict__
+    before = set(open_scenes())
     try:
         for line, code in snippets(doc):
             if "twig_ecs.client" in code:
@@ -56,9 +57,9 @@ def test_python_snippets_run_as_written(doc, capsys):
                 exec(compile(code, f"{doc.name}:{line}", "exec"), namespace)
     finally:
         del sys.modules[module.__name__]
-        for value in namespace.values():
-            if isinstance(value, Scene):
-                value.close()
+        for scene in open_scenes():  # every scene the snippets made, those a later one replaced too
+            if scene not in before:
+                scene.close()
     out = capsys.readouterr().out
     if doc.name == "README.md":
         assert "hug done" in out  # the hug example ends within the time it runs
