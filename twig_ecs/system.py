@@ -2,11 +2,41 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, ClassVar
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
 
 if TYPE_CHECKING:
     from twig_ecs.step import SceneView, StepContext
     from twig_ecs.world import World
+
+
+class Scratch(dict):
+    """A system's caches and scratch arrays by name: made again from the world when needed.
+
+    Written once for every system: a snapshot never holds it (:meth:`System.__getstate__`),
+    and a restored system starts with an empty one and rebuilds what it asks for.
+    """
+
+    def keyed(self, name: str, key: Any, build: Callable[[], Any]) -> Any:
+        """What ``build()`` made for ``key``, kept under ``name`` until asked for another key
+        (a cache invalidated by the goal ids, the store's layout version...)."""
+        entry = self.get(name)
+        if entry is None or entry[0] != key:
+            entry = self[name] = (key, build())
+        return entry[1]
+
+    def array(self, name: str, rows: int, dtype, width: int = 0, fill: Any = None) -> np.ndarray:
+        """A reusable array of at least ``rows`` rows (``width`` columns if given), doubling
+        when it must grow - no allocation per step; ``fill`` initialises a new one."""
+        found = self.get(name)
+        if found is None or found.shape[0] < rows:
+            size = max(16, 2 * rows)
+            found = self[name] = np.empty((size, width) if width else size, dtype=dtype)
+            if fill is not None:
+                found[:] = fill
+        return found
 
 
 class System:
@@ -25,6 +55,18 @@ class System:
     #: The set stage this kind of system joins by default (see :mod:`twig_ecs.schedule`).
     stage: ClassVar[str | None] = None
     scene: SceneView
+
+    def __getstate__(self) -> dict[str, Any]:
+        """What a snapshot keeps of a system: its attributes but its :class:`Scratch`."""
+        return {key: value for key, value in self.__dict__.items() if key != "_scratch"}
+
+    @property
+    def scratch(self) -> Scratch:
+        """This system's caches and scratch arrays (never saved; see :class:`Scratch`)."""
+        found = self.__dict__.get("_scratch")
+        if found is None:
+            found = self.__dict__["_scratch"] = Scratch()
+        return found
 
     @property
     def world(self) -> World:

@@ -391,12 +391,6 @@ class Approach(Behavior):
     )  # fmt: skip
     batch = True
 
-    def __getstate__(self) -> dict:
-        """Pickle (snapshots) without the packed arrays: they are rebuilt from the goals."""
-        state = self.__dict__.copy()
-        state.pop("_packed", None)
-        return state
-
     def act(self, character, mind: Mind, goal: Goal | None, dt: float) -> None:
         """Steer; look at the target; hold the arms as asked (reach, hug or grapple).
 
@@ -526,9 +520,9 @@ class Approach(Behavior):
         state = scene.state
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        packed = self.__dict__.get("_packed")
+        packed = self.scratch.get("packed")  # rebuilt from the goals when they change
         if packed is None:
-            packed = self._packed = _Batch()
+            packed = self.scratch["packed"] = _Batch()
         key = (tuple(-1 if g is None else g.id for g in goals), state.version, state.nodes.count,
                state.bodies.count, id(state))  # fmt: skip
         if key != packed.key:
@@ -589,7 +583,7 @@ class Approach(Behavior):
 
     def stop(self, character, goal: Goal | None) -> None:
         """Stand still, arms down, looking ahead."""
-        packed = self.__dict__.get("_packed")
+        packed = self.scratch.get("packed")
         if packed is not None and goal is not None:
             packed.setups.pop(goal.id, None)  # resumed later: the stall clock comes from its memory
         character.stop()

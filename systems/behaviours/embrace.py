@@ -185,23 +185,18 @@ class Embrace(Behavior):
         """Who hugs whom, looked up again when the hug goals or the store's rows change."""
         # hugged entity: (hugger entity, hug phase, hugger's character row), this step
         self.hugged_by: dict[int, tuple[int, str, int]] = {}
-        self._pairs_key: tuple = ()
-        # per pair: hugged entity, its mind, hugged row, hugger entity, hugger row, hug goal
-        self._pairs: list[tuple] = []
 
-    def __getstate__(self) -> dict:
-        """Pickle (snapshots) without the pair cache: it is rebuilt from the goals."""
-        state = self.__dict__.copy()
-        state["_pairs_key"], state["_pairs"] = (), []
-        return state
-
-    def _refresh_pairs(self) -> None:
+    def _pairs(self) -> list[tuple]:
+        """Per pair: hugged entity, its mind, hugged row, hugger entity, hugger row, hug goal -
+        looked up again when the hug goals or the store's rows change."""
         scene = self.scene
         state = scene.state
         holders = scene.goal_holders_of("hug")
         key = (tuple(mind.goals[0].id for _, mind in holders), state.version, id(state))
-        if key == self._pairs_key:
-            return
+        return self.scratch.keyed("pairs", key, self._find_pairs)
+
+    def _find_pairs(self) -> list[tuple]:
+        scene = self.scene
         pairs = []
         for hugged, (hugger, goal) in goal_targets(scene, "hug").items():
             if not (self.world.entity_exists(hugged) and self.world.has_component(hugged, Mind)):
@@ -212,12 +207,11 @@ class Embrace(Behavior):
                 continue
             mind = self.world.component_for_entity(hugged, Mind)
             pairs.append((hugged, mind, me.index, hugger, them.index, goal))
-        self._pairs, self._pairs_key = pairs, key
+        return pairs
 
     def run(self, ctx: StepContext) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
-        self._refresh_pairs()
-        pairs = self._pairs
+        pairs = self._pairs()
         self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs}
         if not pairs:
             return

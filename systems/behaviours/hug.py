@@ -251,12 +251,6 @@ class Hug(Behavior):
     )
     batch = True
 
-    def __getstate__(self) -> dict:
-        """Pickle (snapshots) without the packed arrays: they are rebuilt from the goals."""
-        state = self.__dict__.copy()
-        state.pop("_packed", None)
-        return state
-
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Approach, wrap, hold, release (:meth:`act_batch` for one character)."""
         self.act_batch([character.character.index], [character.entity], dt, goals=[goal])
@@ -334,9 +328,9 @@ class Hug(Behavior):
     def _pack(self, key: tuple, close: list) -> tuple[dict, list]:
         """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change),
         and the goals packed: those whose partner has gone have failed and are left out."""
-        packed = self.__dict__.get("_packed")
+        packed = self.scratch.get("packed")  # rebuilt from the goals when they change
         if packed is None or packed["key"][1:] != key[1:]:
-            packed = self._packed = {"key": (), "setups": {}}
+            packed = self.scratch["packed"] = {"key": (), "setups": {}}
         setups = packed["setups"]
         live = set(key[0])
         for gid in [g for g in setups if g not in live]:
@@ -370,7 +364,7 @@ class Hug(Behavior):
         state = scene.state
         ch = state.characters
         key = (tuple(goal.id for _, _, goal in close), state.version, id(state))
-        packed = self.__dict__.get("_packed")
+        packed = self.scratch.get("packed")
         if packed is None or packed["key"] != key:
             packed, close = self._pack(key, close)
             if not close:
@@ -409,7 +403,7 @@ class Hug(Behavior):
 
     def stop(self, character, goal: Goal | None) -> None:
         """Arms down (a carried toy stays in its hand) and stand up straight."""
-        packed = self.__dict__.get("_packed")
+        packed = self.scratch.get("packed")
         if packed is not None and goal is not None:
             packed["setups"].pop(goal.id, None)
         character.stoop(None)

@@ -142,24 +142,9 @@ class WanderBehavior(Behavior):
     batch = True
 
     def setup(self) -> None:
-        """Scratch arrays for the kernel, grown as the scene grows (no per-step allocation)."""
-        self._scratch: dict[str, np.ndarray] = {}
+        """The steering gains (the kernel's arrays are in ``self.scratch``, grown as the scene grows)."""
         field = SteeringParams()  # the approach behaviour's gains
         self._params = np.array([field.repulsion, field.cutoff, field.min_sq, field.fade, STEP_OVER])
-
-    def __getstate__(self) -> dict:
-        """Snapshots hold no scratch: the kernel's arrays and cached parameters are made again."""
-        return {**self.__dict__, "_scratch": {}}
-
-    def _buffer(self, key: str, size: int, dtype, fill=None, width: int = 0) -> np.ndarray:
-        """A reusable array of at least ``size`` rows (doubling when it must grow)."""
-        buf = self._scratch.get(key)
-        if buf is None or len(buf) < size:
-            buf = np.empty((max(16, 2 * size), width) if width else max(16, 2 * size), dtype=dtype)
-            if fill is not None:
-                buf[:] = fill
-            self._scratch[key] = buf
-        return buf
 
     def run(self, ctx: StepContext) -> None:
         """Propose ``activation`` for every autonomous wandering character."""
@@ -173,29 +158,29 @@ class WanderBehavior(Behavior):
         state = scene.state
         nodes, ch = state.nodes, state.characters
         n = len(rows)
-        rows_a = self._buffer("rows", n, np.int64)[:n]
+        rows_a = self.scratch.array("rows", n, np.int64)[:n]
         rows_a[:] = rows
-        arrive = self._buffer("arrive", n, np.float64)[:n]
-        patience = self._buffer("patience", n, np.float64)[:n]
+        arrive = self.scratch.array("arrive", n, np.float64)[:n]
+        patience = self.scratch.array("patience", n, np.float64)[:n]
         # per-character parameters: cached by the list of winners (they rarely change)
         key = tuple(entities)
-        if self._scratch.get("key") != key:
+        if self.scratch.get("key") != key:
             comps = [self.world.component_for_entity(e, Wander) for e in entities]
             arrive[:] = [w.arrive for w in comps]
             patience[:] = [w.patience for w in comps]
-            self._scratch["key"] = key
-        redraw = self._buffer("redraw", n, np.uint8)[:n]
+            self.scratch["key"] = key
+        redraw = self.scratch.array("redraw", n, np.uint8)[:n]
         redraw[:] = 0
-        head = self._buffer("head", 2 * nodes.count, np.int64)
+        head = self.scratch.array("head", 2 * nodes.count, np.int64)
         head = head[: 1 << int(math.log2(len(head)))]  # a power of two
         steer_crowd(
             nodes.pos, nodes.body, nodes.count, ch.nodes, ch.body, rows_a, ch.steer_goal, ch.steer_speed,
             ch.steer_best, ch.steer_best_at, arrive, scene.time, patience, ch.walk, redraw, head,
-            self._buffer("nxt", nodes.count, np.int64),
-            self._buffer("near_d2", state.bodies.count, np.float64),
-            self._buffer("near_node", state.bodies.count, np.int64, fill=-1),
-            self._buffer("touched", state.bodies.count, np.int64),
-            self._buffer("obstacles", state.bodies.count, np.float64, width=3),
+            self.scratch.array("nxt", nodes.count, np.int64),
+            self.scratch.array("near_d2", state.bodies.count, np.float64),
+            self.scratch.array("near_node", state.bodies.count, np.int64, fill=-1),
+            self.scratch.array("touched", state.bodies.count, np.int64),
+            self.scratch.array("obstacles", state.bodies.count, np.float64, width=3),
             self._params,
         )  # fmt: skip
         for k in np.flatnonzero(redraw):

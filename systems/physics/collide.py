@@ -579,21 +579,9 @@ class CollideSystem(System):
 
     name = "collide"
 
-    def setup(self) -> None:
-        """Broad-phase scratch arrays, kept between steps and grown as the scene grows."""
-        self._scratch: dict[str, np.ndarray] = {}
-
-    def __getstate__(self) -> dict:
-        """Snapshots hold no scratch: the broad phase makes its arrays again."""
-        return {**self.__dict__, "_scratch": {}}
-
     def _array(self, key: str, shape: tuple[int, ...], dtype) -> np.ndarray:
         """A reusable scratch array with at least ``shape[0]`` rows (doubling to grow)."""
-        a = self._scratch.get(key)
-        if a is None or a.shape[0] < shape[0]:
-            a = np.empty((max(16, 2 * shape[0]), *shape[1:]), dtype=dtype)
-            self._scratch[key] = a
-        return a
+        return self.scratch.array(key, shape[0], dtype, *shape[1:2])
 
     def broad_phase(self) -> int:
         """Candidate collider pairs into ``state.pairs``: boxes, then body pairs, then colliders."""
