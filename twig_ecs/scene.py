@@ -367,7 +367,7 @@ class Scene:
 
     def step_context(self) -> StepContext:
         """The context the next step hands every system (:class:`~twig_ecs.step.StepContext`)."""
-        return StepContext(dt=self.dt, frame=self.frame, time=self.frame * self.dt, world=self.world,
+        return StepContext(dt=self.dt, frame=self.frame, time=self.time, world=self.world,
                            state=self.state, rng=self.rng, settings=self.settings, events=self.bus,
                            scene=self)  # fmt: skip
 
