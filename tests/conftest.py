@@ -153,13 +153,13 @@ def yard_five_minutes(request, tmp_path_factory) -> YardRun:
 
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The ``slow`` tests first, in their own order (a stable sort).
+    """The ``slow`` and ``soak`` tests first, in their own order (a stable sort).
 
     With workers the longest units start first and the many short ones fill in at the end,
     so no worker is left finishing a long test while the other has nothing to do. It runs
     after pytest's own ordering, which keeps the shared run's readers next to each other.
     """
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    items.sort(key=lambda item: not any(item.get_closest_marker(mark) for mark in ("slow", "soak")))
 
 
 @pytest.hookimpl(optionalhook=True)

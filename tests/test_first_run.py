@@ -42,22 +42,30 @@ def balls_scene(tmp_path) -> Path:
 
 
 @pytest.mark.slow  # compiles kernels in an empty cache (the one test that does)
-def test_a_first_build_compiles_each_kernel_once_into_a_cache_keyed_by_version_and_shared(
-    tmp_path, balls_scene
-):
+def test_a_first_build_shows_one_true_total_compiles_each_kernel_once_and_is_shared(tmp_path, balls_scene):
     cache = tmp_path / "cache"
-    build = run_python(
-        "-c",
-        "from twig_ecs import kernels\n"
-        f"b = kernels.KernelBuild({str(balls_scene)!r}); b.wait()\n"
-        "print(repr((b.compiles, b.errors, str(kernels.cache_folder()))))",
-        env={"TWIG_CACHE_DIR": str(cache)},
+    # the progress is polled as a window does: it used to guess 20 (or the count an earlier
+    # build remembered) and grow past it: x/20, then 21/21 ... 40/40; now a worker counts the
+    # kernels first, stepping the scene once as plain Python
+    probe = (
+        "import time; from twig_ecs import kernels\n"
+        f"b = kernels.KernelBuild({str(balls_scene)!r})\n"
+        "shown = []\n"
+        "while not b.poll():\n"
+        "    shown.append(b.status().split(': ', 1)[1].split()[0])\n"
+        "    time.sleep(0.02)\n"
+        "print(repr((shown, b.compiles, b.errors, str(kernels.cache_folder()))))\n"
     )
+    build = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(cache)})
     assert build.returncode == 0, build.stderr
-    compiles, errors, folder = eval(build.stdout)  # noqa: S307 - our own probe's printout
+    shown, compiles, errors, folder = eval(build.stdout)  # noqa: S307 - our own probe's printout
     assert errors == []
     compiled = {name for _, name in compiles}
     assert {"resolve_contacts", "solve_collisions", "relax_once", "integrate_nodes"} <= compiled
+    totals = [progress.split("/")[1] for progress in shown if "/" in progress]
+    # one total, from its first showing to the end: the kernels the build then compiled
+    assert set(totals) == {str(len(compiled))}
+    assert {progress for progress in shown if "/" not in progress} <= {"counting"}  # no guess before
     assert {worker for worker, _ in compiles} == {0, 1}  # both workers compiled a share
     # a kernel one worker compiles twice has a second type specialisation, compiled again
     # on every first run (resolve_contacts had one, for a literal False)
@@ -143,29 +151,6 @@ def test_editing_a_pure_python_behaviour_compiles_no_kernel_and_a_kernel_module_
     _kernels_compiled_by_a_schoolyard_run(sources, cache)
     new = filed() - before
     assert len(new) == 1 and new.pop().startswith("control.respiration-")
-
-
-@pytest.mark.slow  # compiles kernels in an empty cache
-def test_a_first_builds_progress_total_is_the_count_it_compiles_and_never_changes(tmp_path, balls_scene):
-    # it used to guess 20 (or the count an earlier build remembered) and grow past it: x/20, then
-    # 21/21 ... 40/40; now a worker counts the kernels first, stepping the scene once as plain Python
-    probe = (
-        "import time; from twig_ecs import kernels\n"
-        f"b = kernels.KernelBuild({str(balls_scene)!r})\n"
-        "shown = []\n"
-        "while not b.poll():\n"
-        "    shown.append(b.status().split(': ', 1)[1].split()[0])\n"
-        "    time.sleep(0.02)\n"
-        "print(repr((shown, sorted(b.compiled), b.errors)))\n"
-    )
-    build = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
-    assert build.returncode == 0, build.stderr
-    shown, compiled, errors = eval(build.stdout)  # noqa: S307 - our own probe's printout
-    assert errors == [] and len(compiled) >= 5
-    totals = [progress.split("/")[1] for progress in shown if "/" in progress]
-    # one total, from its first showing to the end: the kernels the build then compiled
-    assert set(totals) == {str(len(compiled))}
-    assert {progress for progress in shown if "/" not in progress} <= {"counting"}  # no guess before
 
 
 def test_every_kernel_is_filed_by_our_cache_locator():

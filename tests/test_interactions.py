@@ -278,7 +278,7 @@ def test_a_scuffle_is_face_to_face_and_the_victim_staggers_back_and_turns_away(t
     assert backed and turned_away, "hurt, it staggers back, then turns away"
 
 
-@pytest.mark.slow  # reads the shared five-minute run (twig run schoolyard ... --report json)
+@pytest.mark.soak  # reads the shared five-minute run (twig run schoolyard ... --report json)
 def test_twig_run_report_json_has_the_interaction_figures(yard_five_minutes):
     report = yard_five_minutes.report
     assert yard_five_minutes.code == 0

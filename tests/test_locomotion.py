@@ -227,7 +227,7 @@ def test_the_torso_figures_count_a_fall_but_not_a_fold_right_after_a_blow(scenes
     assert figures["knocked"]["frames_over_after_blows"] > 0, "but it is counted apart"
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes):
     torso = yard_five_minutes.report["torso"]["characters"]
     assert set(torso) == {"parent", "big_child", "small_child"}
@@ -247,7 +247,7 @@ def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes)
         assert figures["frames_over"] <= FOLD_FRAMES and figures["max_deg"] <= MOST_PITCH, (child, figures)
 
 
-@pytest.mark.slow  # five minutes of the schoolyard each
+@pytest.mark.soak  # five minutes of the schoolyard each
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_five_minutes_in_the_schoolyard_keep_everyone_upright_on_other_seeds(scenes, seed):
     # seed 0 is the shared run above. Session 12, before the righting reflex: small / big child

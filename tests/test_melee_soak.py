@@ -29,7 +29,7 @@ def test_half_a_minute_of_the_goal_melee_stays_within_the_soak_limits(seed):
     _assert_a_melee_passes(seed, 30.0)
 
 
-@pytest.mark.slow  # 18 000 steps a seed, 30-60 s each
+@pytest.mark.soak  # 18 000 steps a seed, 30-60 s each
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])
 def test_five_minutes_of_the_goal_melee_stay_within_the_soak_limits(seed):
     # issue 31: "the 16-character goal melee (seeds 0-3, 300 s) passes --soak"

@@ -46,7 +46,7 @@ def home_base_cycles(rows) -> int:
     return cycles
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_the_small_child_goes_round_the_safe_home_base_cycle_at_least_twice(story):
     report, rows, _, _ = story
     small = report["characters"]["small_child"]
@@ -58,7 +58,7 @@ def test_the_small_child_goes_round_the_safe_home_base_cycle_at_least_twice(stor
     assert small["time_per_behaviour"]["play"] > 60.0
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
     _, rows, _, _ = story
     anxiety, distance = column(rows, "anxiety"), column(rows, "caregiver_distance")
@@ -79,7 +79,7 @@ def test_anxiety_rises_with_distance_and_falls_after_a_hug(story):
     assert len(reached) >= 2 and all(anxiety[k] < 0.2 for k in reached)
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(story):
     report, _, plot, _ = story
     kids = report["characters"]
@@ -98,7 +98,7 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     assert plot.stat().st_size > 10_000
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_a_fight_is_followed_by_a_pain_withdrawal(story):
     report, _, _, everyone = story
     assert report["characters"]["big_child"]["fights"] >= 1
@@ -113,7 +113,7 @@ def test_a_fight_is_followed_by_a_pain_withdrawal(story):
     assert any(0.0 < t - f < 5.0 for t in flinching for f in fighting), "a blow of the fight made it flinch"
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_five_minutes_stay_physically_sound(story):
     report, _, _, _ = story
     assert report["nan"] is False
@@ -182,7 +182,7 @@ def _contact_figures_hold(report) -> None:
     assert doll["max_depth_in_carrier_m"] <= 0.02, "the doll does not pass through its carrier"
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_kicks_pushes_and_hugs_are_true_to_contact_and_the_ball_stays_in_the_yard(story):
     report, _, _, _ = story
     _contact_figures_hold(report)

@@ -10,7 +10,7 @@ from twig_ecs.cli import main
 from twig_ecs.soak import Health, SoakLimits
 
 
-@pytest.mark.slow  # reads the shared five-minute run
+@pytest.mark.soak  # reads the shared five-minute run
 def test_five_minutes_of_schoolyard_stay_within_the_soak_limits(yard_five_minutes):
     # `twig run schoolyard --seconds 300 --soak --report json` (with a trace and a plot, which
     # the story tests read), simulated once per session: tests/yard_run.py
