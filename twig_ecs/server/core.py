@@ -19,6 +19,7 @@ import asyncio
 import collections
 import concurrent.futures
 import functools
+import gc
 import inspect
 import sys
 import time
@@ -150,6 +151,11 @@ class Server:
 
     async def start(self) -> None:
         """Bind the ports and start the simulation loop."""
+        # Everything alive now (numba's and the scene's objects, tens of thousands) is kept
+        # out of the cyclic collector's full passes: one of those holds the interpreter for
+        # 20 ms on a quiet machine and several times that on a busy one or in a big process,
+        # and a ping or status waits behind it (issue 33). Reference counting still frees them.
+        gc.freeze()
         self._wakeup = asyncio.Event()
         self._stopped = asyncio.Event()
         self._world = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="twig-world")
@@ -202,6 +208,7 @@ class Server:
             self.window.close()  # closes its scene too
         elif self.own_scene:
             self.scene.close()
+        gc.unfreeze()  # what this process kept is collectable again
 
     def _accept(self, kind: type[Session]):
         async def serve(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
