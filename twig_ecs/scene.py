@@ -23,16 +23,18 @@ import numpy as np
 
 from twig_ecs import grabs as grab_joints
 from twig_ecs import snapshot
-from twig_ecs.behavior import Behavior, Goal, GoalDone, GoalFailed, Mind
+from twig_ecs.behavior import Behavior, Goal, Mind
 from twig_ecs.character import CharacterHandle, make_character
 from twig_ecs.clock import STEP, FixedStepClock
 from twig_ecs.components import Character, GrabJoint, Memory, Name
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.events import Event, EventBus
+from twig_ecs.goalbook import GoalBook
 from twig_ecs.grabs import RELEASE_GRACE_STEPS  # noqa: F401 - its old home; tests and plug-ins read it here
 from twig_ecs.handles import BodyHandle
 from twig_ecs.kernels import ensure_compiled
 from twig_ecs.library import ContentLibrary
+from twig_ecs.names import EntityNames
 from twig_ecs.plugins import Plugin, default_plugins
 from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_entity, read_scene
 from twig_ecs.schedule import Schedule
@@ -43,7 +45,6 @@ from twig_ecs.system import System
 from twig_ecs.threads import ThreadChoice
 from twig_ecs.trust import trusting
 from twig_ecs.validate import seed as seed_value
-from twig_ecs.validate import suggest
 from twig_ecs.world import World
 from twig_ecs.yamldoc import YDict
 
@@ -98,22 +99,15 @@ class Scene:
         self.rng = np.random.default_rng(seed)
         self.frame = 0
         self.bus = EventBus()
-        self._names: dict[str, int] = {}
-        self._name_by_entity: dict[int, str] = {}  # the reverse of _names: handles are made per step
+        self.names = EntityNames()
         self.world = World()
+        self.goals = GoalBook(self.world, self.bus.emit)
+        self.world.add_resource(self.goals)
         self._closed = False
         _OPEN.add(self)
         self.schedule = Schedule()
         self._installed: list[System] | None = None
         self._threads = ThreadChoice()  # how many threads its steps use (measured; twig_ecs.threads)
-        # characters that were given goals (entity -> Mind), pruned when their goals run
-        # out: goal-driven behaviours look only at these (see goal_holders)
-        self._goal_holders: dict[int, Mind] = {}
-        # goal holders by the behaviour of their current goal, rebuilt when a goal is given or
-        # ends or a step begins (goal_holders_of)
-        self._goal_index: tuple[tuple[int, int], dict[str, list[tuple[int, Mind]]]] = ((-1, -1), {})
-        self._goal_changes = 0
-        self.goals_made = 0  # goal ids count per scene, so a restored or replayed scene numbers alike
         self.behaviors: dict[str, Behavior] = {}
         self.plugins: list[Plugin] = plugins
         try:
@@ -175,10 +169,10 @@ class Scene:
             for spec in plan.entities:
                 scene._spawn_spec(spec)
                 for behavior in spec.behaviors:
-                    scene.world.add_component(scene._names[spec.name], behavior.component)
+                    scene.world.add_component(scene.names.entity(spec.name), behavior.component)
                 if spec.perception is not None:
-                    scene.world.add_component(scene._names[spec.name], spec.perception)
-                    scene.world.add_component(scene._names[spec.name], Memory())
+                    scene.world.add_component(scene.names.entity(spec.name), spec.perception)
+                    scene.world.add_component(scene.names.entity(spec.name), Memory())
             for i, spec in enumerate(plan.entities):  # starting commands may name later entities
                 if spec.character is not None and spec.character.start:
                     try:
@@ -200,8 +194,7 @@ class Scene:
         self.check_open()
         entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
                             spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
-        self._names[spec.name] = entity
-        self._name_by_entity[entity] = spec.name
+        self.names.add(spec.name, entity)
         if spec.character is not None:
             make_character(self, entity, spec.facing, spec.character)
             return CharacterHandle(self, entity, spec.name)
@@ -224,8 +217,8 @@ class Scene:
         defaults to ``template`` plus a number; it must be unique.
         """
         if name is None:
-            name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self._names)
-        if name in self._names:
+            name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self.names)
+        if name in self.names:
             raise SceneError(f"an entity named '{name}' already exists")
         raw = YDict({"name": name, "body": template, "position": list(position), "facing": facing, **params})
         raw.file = "<spawn>"
@@ -252,10 +245,8 @@ class Scene:
                                                 goal.params.get("on")):  # fmt: skip
                     self.end_goal(self.character_handle(other), goal, False, f"'{name}' was removed")
         grab_joints.remove_body(self, entity)
-        del self._names[name]
-        del self._name_by_entity[entity]
-        self._goal_holders.pop(entity, None)
-        self._goal_changes += 1
+        self.names.remove(name)
+        self.goals.forget(entity)
 
     # -- grab joints --------------------------------------------------------------------
 
@@ -414,64 +405,38 @@ class Scene:
 
     def entity_id(self, name: str) -> int:
         """The entity id of the entity called ``name`` (KeyError with suggestions if unknown)."""
-        try:
-            return self._names[name]
-        except KeyError:
-            raise KeyError(f"no entity named '{name}'" + suggest(name, self._names)) from None
+        return self.names.entity(name)
 
     def character_handle(self, entity: int) -> CharacterHandle:
         """The handle of a character by entity id."""
-        name = self._name_by_entity.get(entity)
+        name = self.names.name(entity)
         if name is None:
             name = self.name_of(entity) or str(entity)
         return CharacterHandle(self, entity, name)
 
+    # -- goals (the world's GoalBook, under the names the behaviours know) ----------------
+
     def note_goal(self, entity: int, mind: Mind) -> None:
         """Record that a character was given a goal (see :meth:`goal_holders`)."""
-        self._goal_holders[entity] = mind
-        self._goal_changes += 1
+        self.goals.note(entity, mind)
 
     def goal_holders(self) -> list[tuple[int, Mind]]:
-        """(entity, mind) of the characters holding goals: goal-driven behaviours look only here.
-
-        Costs as many characters as hold goals, not all of them: characters join when
-        given a goal (:meth:`note_goal`) and leave here once their goals have run out.
-        """
-        holders = self._goal_holders
-        done = [e for e, mind in holders.items() if not mind.goals]
-        for e in done:
-            del holders[e]
-        return list(holders.items())
+        """(entity, mind) of the characters holding goals: goal-driven behaviours look only here."""
+        return self.goals.holders()
 
     def goal_holders_of(self, behavior: str) -> list[tuple[int, Mind]]:
-        """The :meth:`goal_holders` whose current goal is for ``behavior``, in the same order.
-
-        One pass over the holders serves every goal behaviour of a step, instead of one
-        pass each: the index is rebuilt when a goal is given or ends, or a step begins.
-        """
-        key = (self.frame, self._goal_changes)
-        if self._goal_index[0] != key:
-            index: dict[str, list[tuple[int, Mind]]] = {}
-            for entity, mind in self.goal_holders():
-                index.setdefault(mind.goals[0].behavior, []).append((entity, mind))
-            self._goal_index = (key, index)
-        return self._goal_index[1].get(behavior, [])
+        """The :meth:`goal_holders` whose current goal is for ``behavior``, in the same order."""
+        return self.goals.holders_of(behavior, self.frame)
 
     def end_goal(self, character: CharacterHandle, goal: Goal, ok: bool = True, reason: str = "") -> None:
         """Finish a character's goal: mark it, drop it from the queue, report it."""
-        if goal.finished:
-            return
-        self._goal_changes += 1
-        goal.status, goal.reason = ("done" if ok else "failed"), reason
-        mind = self.world.component_for_entity(character.entity, Mind)
-        if goal in mind.goals:
-            mind.goals.remove(goal)
-        if ok:
-            self.emit(GoalDone(character.entity, goal.id, goal.behavior))
-        else:
-            self.emit(GoalFailed(character.entity, goal.id, goal.behavior, reason))
-        if goal.on_end is not None:
-            goal.on_end(goal)
+        self.goals.end(character.entity, goal, ok, reason)
+
+    def new_goal_id(self) -> int:
+        """A fresh goal id, unique within this scene (1, 2, 3...)."""
+        return self.goals.new_id()
+
+    # -- reading (continued) ----------------------------------------------------------
 
     def entity(self, name: str) -> BodyHandle:
         """The handle of the entity called ``name`` (KeyError with suggestions if unknown).
@@ -487,25 +452,20 @@ class Scene:
     @property
     def entity_names(self) -> list[str]:
         """Names of all named entities, in spawn order (a new list: see :meth:`has_entity`)."""
-        return list(self._names)
+        return list(self.names)
 
     def has_entity(self, name: str) -> bool:
         """Is there an entity named ``name``? (A lookup, not a copy of every name.)"""
-        return name in self._names
+        return name in self.names
 
     def name_of(self, entity: int) -> str | None:
         """The name of an entity (a body; None for a grab joint or an unknown entity)."""
-        name = self._name_by_entity.get(entity)
+        name = self.names.name(entity)
         if name is not None:  # a named body: the common case, without component look-ups
             return name
         self.check_open()
         name = self.world.try_component(entity, Name)
         return name.value if name else None
-
-    def new_goal_id(self) -> int:
-        """A fresh goal id, unique within this scene (1, 2, 3...)."""
-        self.goals_made += 1
-        return self.goals_made
 
     def state_hash(self) -> str:
         """A hash of every node position: equal hashes mean equal trajectories so far."""

@@ -57,10 +57,11 @@ from twig_ecs.world import World, check_world
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 5  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+FORMAT_VERSION = 6  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
 # 3: hands gliding in a hug or an embrace are a character-table column (hand_aim), not a HandAims component
 # 4: the payload is data (twig_ecs.worlddata: JSON structure + array bytes), no longer a pickle
 # 5: systems live in feature packages (twig_ecs.systems.physics/control/behaviours): classes moved
+# 6: a scene's entity names and goal holders are objects of their own (EntityNames, GoalBook)
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32

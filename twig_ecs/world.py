@@ -62,6 +62,10 @@ class World:
             found = self._resources[kind] = kind()
         return found
 
+    def add_resource(self, resource: Any) -> None:
+        """Make ``resource`` the world's one object of its class (one that needs arguments)."""
+        self._resources[type(resource)] = resource
+
     def __getstate__(self) -> dict[str, Any]:
         """What a snapshot keeps: everything but the query caches."""
         state = dict(self.__dict__)

@@ -57,10 +57,10 @@ from twig_ecs.errors import TwigError
 #: Modules whose classes are world state (and may be rebuilt from a file). Packages end in ".".
 WORLD_MODULES = (
     "twig_ecs.components.", "twig_ecs.systems.", "twig_ecs.behavior", "twig_ecs.mind", "twig_ecs.character",
-    "twig_ecs.clock", "twig_ecs.world", "twig_ecs.events", "twig_ecs.goals", "twig_ecs.grabs",
-    "twig_ecs.handles", "twig_ecs.library", "twig_ecs.parameters", "twig_ecs.perturb", "twig_ecs.plugins",
-    "twig_ecs.scene", "twig_ecs.scenefile", "twig_ecs.schedule", "twig_ecs.steering", "twig_ecs.store",
-    "twig_ecs.system", "twig_ecs.templates", "twig_ecs.yamldoc",
+    "twig_ecs.clock", "twig_ecs.world", "twig_ecs.events", "twig_ecs.goals", "twig_ecs.goalbook",
+    "twig_ecs.grabs", "twig_ecs.handles", "twig_ecs.library", "twig_ecs.names", "twig_ecs.parameters",
+    "twig_ecs.perturb", "twig_ecs.plugins", "twig_ecs.scene", "twig_ecs.scenefile", "twig_ecs.schedule",
+    "twig_ecs.steering", "twig_ecs.store", "twig_ecs.system", "twig_ecs.templates", "twig_ecs.yamldoc",
 )  # fmt: skip
 #: Classes outside those modules that a world holds as values.
 _PLAIN_CLASSES: dict[str, type] = {
