@@ -13,17 +13,21 @@ every twig-ecs module from source again (~0.1 s), which no user pays.
     python benchmarks/startup.py                       # twig run schoolyard --seconds 1, cached
     python benchmarks/startup.py --cold                # ... with an empty kernel cache
     python benchmarks/startup.py --cold -- play schoolyard --headless --frames 60
+    python benchmarks/startup.py --cold --burners 1    # a first run beside one CPU-bound process
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+
+from busy_machine import burn  # (this folder is on the path of a script run from it)
 
 #: The child: mark the end of the first step that advances time, then run the real CLI.
 _CHILD = """
@@ -79,10 +83,24 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cold", action="store_true", help="an empty kernel cache each time (first run)")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--burners", type=int, default=0, help="CPU-bound processes beside it")
     parser.add_argument("command", nargs="*", default=["run", "schoolyard", "--seconds", "1"])
     args = parser.parse_args()
     if not args.cold:
         measure(args.command)  # untimed: writes the bytecode and fills the OS file cache
+    stop = multiprocessing.Event()
+    burners = [multiprocessing.Process(target=burn, args=(stop,), daemon=True) for _ in range(args.burners)]
+    for proc in burners:
+        proc.start()
+    try:
+        _measure_repeatedly(args)
+    finally:
+        stop.set()
+        for proc in burners:
+            proc.join()
+
+
+def _measure_repeatedly(args: argparse.Namespace) -> None:
     firsts, cpus = [], []
     for _ in range(args.repeat):
         first, cpu, total, total_cpu, said = measure(args.command, args.cold)
