@@ -29,8 +29,10 @@ def _add_scene_args(
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
     p.add_argument("--count", type=str, default=None, metavar="N",
                    help="the scene's 'count' parameter (e.g. characters in the crowd)")  # fmt: skip
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", type=_param,
-                   help="set a parameter the scene declares (repeatable)")  # fmt: skip
+    p.add_argument("--param", "--set", dest="param", action="append", default=[], metavar="NAME=VALUE",
+                   type=_param, help="set a parameter the scene declares, or any value by a dotted path: "
+                   "attachment.safe_distance=3 (a behaviour's), ball.damping.ground=0.01 (an entity's), "
+                   "settings.iterations=10 (repeatable)")  # fmt: skip
     p.add_argument("--trust", action="store_true",
                    help="let scenes, snapshots, replays run plug-in code (docs/reliability.md)")  # fmt: skip
     p.set_defaults(scene_parameters=True)

@@ -11,6 +11,12 @@ sqrt, ceil, floor, round, min, max, abs). ``Scene.load("crowd", count=300)``,
 ``twig run crowd --count 300`` or ``--param count=300`` set them. A parameter is an
 integer when its default is one, else a number; values outside the bounds, unknown
 names and bad formulas are errors that say where.
+
+A name with a dot is an **override** of any value in the file, declared or not
+(``--set attachment.safe_distance=3``, ``Scene.load("schoolyard", **{"ball.damping.ground":
+0.01})``): its first part names a behaviour (every ``use:`` of it), an entity, or
+``settings``; the rest is the key path inside. The file is then validated as if it had
+been written so (:func:`override`).
 """
 
 from __future__ import annotations
@@ -20,6 +26,8 @@ import math
 import operator
 from dataclasses import dataclass
 from typing import Any
+
+import yaml
 
 from twig_ecs.errors import SceneError
 from twig_ecs.validate import check_keys, fail, join, mapping, read, suggest, text
@@ -128,6 +136,73 @@ def resolve(declared: dict[str, Parameter], given: dict[str, Any], scene: str) -
         except ValueError as exc:
             raise SceneError(f"scene '{scene}': {exc}") from None
     return values
+
+
+def overrides_of(given: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``given`` split into (declared parameters, overrides: the names with a dot)."""
+    plain = {name: value for name, value in given.items() if "." not in name}
+    return plain, {name: value for name, value in given.items() if "." in name}
+
+
+def override(doc: YDict, path: str, value: Any, scene: str) -> int:
+    """Set the dotted ``path`` of a scene document to ``value`` (a string is read as a YAML
+    scalar: ``"3"`` is 3, ``"true"`` True); returns how many places it set.
+
+    ``BEHAVIOUR.KEY...`` sets KEY in every entity's ``behaviors`` entry that uses BEHAVIOUR,
+    ``ENTITY.KEY...`` in that entity, ``settings.KEY...`` in the scene's settings. A path
+    that matches nothing, or walks into something that is not a mapping, is a SceneError.
+    """
+    if isinstance(value, str):
+        value = _scalar(value, path, scene)
+    head, _, rest = path.partition(".")
+    keys = rest.split(".")
+    if not head or not all(keys):
+        raise SceneError(f"scene '{scene}': '{path}' is not a dotted path such as attachment.safe_distance")
+    places: list[Any] = []
+    if head == "settings":
+        places.append(doc.setdefault("settings", YDict()))
+    entities = doc.get("entities")
+    known: set[str] = {"settings"}
+    for raw in entities if isinstance(entities, list) else ():
+        if not isinstance(raw, dict):
+            continue
+        known.add(str(raw.get("name")))
+        if raw.get("name") == head:
+            places.append(raw)
+        behaviours = raw.get("behaviors")
+        for entry in behaviours if isinstance(behaviours, list) else ():
+            if isinstance(entry, dict):
+                known.add(str(entry.get("use")))
+                if entry.get("use") == head:
+                    places.append(entry)
+    if not places:
+        raise SceneError(f"scene '{scene}': no behaviour, entity or settings called '{head}' to set "
+                         f"'{path}'" + suggest(head, sorted(known)))  # fmt: skip
+    for place in places:
+        for depth, key in enumerate(keys[:-1]):
+            inner = place.get(key)
+            if inner is None:
+                inner = place[key] = YDict()
+            if not isinstance(inner, dict):
+                where = ".".join([head, *keys[: depth + 1]])
+                raise SceneError(f"scene '{scene}': cannot set '{path}': '{where}' is not a mapping")
+            place = inner
+        place[keys[-1]] = value
+    return len(places)
+
+
+def _scalar(text: str, path: str, scene: str) -> Any:
+    """A command line's value as YAML reads it, refused unless a scalar or a list of them."""
+    try:
+        value = yaml.safe_load(text) if len(text) <= MAX_FORMULA else None
+    except yaml.YAMLError:
+        value = None
+    plain = (int, float, str, bool)
+    if isinstance(value, plain) or (isinstance(value, list) and all(isinstance(v, plain) for v in value)):
+        return YList(value) if isinstance(value, list) else value
+    raise SceneError(
+        f"scene '{scene}': '{path}={text}': give a number, a word, true/false or a list of those"
+    )
 
 
 def substitute(node: Any, values: dict[str, int | float], path: str = "") -> Any:

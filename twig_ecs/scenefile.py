@@ -19,7 +19,7 @@ from twig_ecs.character import ARM_POSES, CHARACTER_KEYS, START_COMMANDS, Charac
 from twig_ecs.components import PainSensor, Perception
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.library import ContentLibrary, read_document
-from twig_ecs.parameters import read_parameters, resolve, substitute
+from twig_ecs.parameters import override, overrides_of, read_parameters, resolve, substitute
 from twig_ecs.plugins import load_builtin_behaviors
 from twig_ecs.spawn import MAX_EXTENT
 from twig_ecs.store import ROLES
@@ -273,8 +273,12 @@ def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | N
     path = library.scene_path(source)
     doc = read_document(path)
     check_keys(doc, "", SCENE_KEYS)
-    values = resolve(read_parameters(doc), parameters or {}, str(doc.get("name", path.stem)))
+    scene_name = str(doc.get("name", path.stem))
+    declared, overrides = overrides_of(parameters or {})
+    values = resolve(read_parameters(doc), declared, scene_name)
     substitute(doc, values)
+    for name, value in overrides.items():  # then validated below as if written so
+        override(doc, name, value, scene_name)
     if "template" in doc:
         fail(doc, "template", "template", "this is a body template, not a scene")
     library = library.copy()
@@ -332,7 +336,7 @@ def read_scene(source: str | Path, library: ContentLibrary, parameters: dict | N
         entities=entities,
         library=library,
         systems=systems,
-        parameters=values,
+        parameters={**values, **overrides},
     )
 
 
