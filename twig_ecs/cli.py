@@ -143,6 +143,29 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 1 if report["nan"] else 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run the product of seeds and values, print a summary, write the table."""
+    from twig_ecs import sweep
+
+    seeds = sweep.parse_seeds(args.seeds)
+    grid = dict(sweep.parse_values(text) for text in args.sweep)
+    runs = sweep.plan_runs(seeds, grid)
+    if args.workers is not None and args.workers < 1:
+        raise TwigError("--workers: give 1 or more")
+    sweep.check_names(args.scene, list(grid), args.content)
+    rows = sweep.run_local(args.scene, args.seconds, runs, args.content, args.workers,
+                           on_row=sweep.SweepProgress(len(runs)))  # fmt: skip
+    path = sweep.write_table(rows, args.output, list(grid), args.metric)
+    for line in sweep.summary(rows, list(grid), args.metric):
+        print(line)
+    stopped = len(rows) < len(runs)
+    print(
+        f"{len(rows)} of {len(runs)} runs in {path}"
+        + (" (stopped: the finished runs are kept)" if stopped else "")
+    )
+    return 130 if stopped else 0
+
+
 def _list(kind, choices=None):
     def parse(text: str):
         items = [kind(x) for x in text.split(",") if x.strip()]
@@ -245,6 +268,31 @@ def build_parser() -> argparse.ArgumentParser:
     _add_soak_args(p)
     p.set_defaults(func=cmd_run)
 
+    p = sub.add_parser(
+        "sweep", help="run a scene over many seeds and parameter values: a row per run (docs/sweeps.md)"
+    )
+    p.add_argument("scene", help=_scene_help())
+    p.add_argument("--seeds", default="0", help="seeds and ranges, e.g. 0-199 or 1,5,9 (default 0)")
+    p.add_argument("--set", dest="sweep", action="append", default=[], metavar="NAME=V1,V2,...",
+                   help="values to sweep of a scene parameter or a dotted path, e.g. "
+                   "attachment.safe_distance=2,3,4 (repeatable: the product is run)")  # fmt: skip
+    p.add_argument(
+        "--seconds", type=positive_seconds, default=60.0, help="simulated seconds a run (default 60)"
+    )
+    p.add_argument("-o", "--output", default="sweep.csv", metavar="FILE.csv|FILE.parquet",
+                   help="the table, one row per run (default sweep.csv)")  # fmt: skip
+    p.add_argument(
+        "--metric",
+        action="append",
+        default=[],
+        metavar="DOTTED.PATH",
+        help="keep only these report figures (e.g. characters.small_child.hugs; repeatable)",
+    )
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    p.add_argument("--content", action="append", default=[], metavar="DIR",
+                   help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
+    p.set_defaults(func=cmd_sweep, seed=0)
+
     from twig_ecs.bench.run import CASES, SIZES
 
     p = sub.add_parser("bench", help="time step costs by system, beside MuJoCo (docs/performance.md)")
@@ -290,7 +338,7 @@ def _unknown_arguments(parser: argparse.ArgumentParser, args: argparse.Namespace
 
 #: Commands that compile a first run's kernels up front with progress on stderr
 #: (``play`` shows it in its window; ``bench`` times the compile itself).
-PREPARED_COMMANDS = ("run", "render", "serve")
+PREPARED_COMMANDS = ("run", "render", "serve", "sweep")
 
 
 def _prepare_kernels(args: argparse.Namespace) -> None:

@@ -1,0 +1,107 @@
+"""Sweeps (issue 38): many runs over seeds and values, each the row `twig run` would report."""
+
+from __future__ import annotations
+
+import csv
+import json
+import multiprocessing
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from twig_ecs import Scene
+from twig_ecs.cli import main
+from twig_ecs.errors import SceneError
+from twig_ecs.sweep import SweepRun, plan_runs, run_local
+
+SECONDS = 4.0
+
+
+def twig_run(capsys, *args: str) -> dict:
+    """`twig run ... --report json` through the CLI, as a user would: its report."""
+    capsys.readouterr()
+    assert main(["run", *args, "--report", "json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.mark.slow  # six schoolyard runs in two worker processes, then four of them one by one
+def test_a_sweep_table_has_the_rows_twig_run_gives_one_by_one_and_an_error_row_for_a_bad_value(
+    tmp_path, capsys
+):
+    table = tmp_path / "sweep.csv"
+    code = main(["sweep", "schoolyard", "--seeds", "0-1", "--set", "attachment.safe_distance=1.5,4,-x",
+                 "--seconds", str(SECONDS), "-o", str(table), "--workers", "2"])  # fmt: skip
+    assert code == 0
+    said = capsys.readouterr().out
+    assert "6 of 6 runs" in said and "attachment.safe_distance=-x: 0 run(s), 2 failed" in said
+    with open(table, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["seed"], r["attachment.safe_distance"]) for r in rows] == [
+        ("0", "1.5"), ("1", "1.5"), ("0", "4"), ("1", "4"), ("0", "-x"), ("1", "-x")]  # fmt: skip
+    for row in rows[:4]:
+        report = twig_run(capsys, "schoolyard", "--seed", row["seed"], "--seconds", str(SECONDS),
+                          "--set", f"attachment.safe_distance={row['attachment.safe_distance']}")  # fmt: skip
+        assert row["error"] == "" and row["state_hash"] == report["state_hash"]
+        assert row["frames"] == str(report["frames"])
+        assert row["max_link_error"] == str(report["max_link_error"])
+        assert row["characters.small_child.hugs"] == str(report["characters"]["small_child"]["hugs"])
+        assert "step_ms.median" not in row  # wall time: the same sweep gives the same table
+    assert len({r["state_hash"] for r in rows[:4]}) >= 2, "the seeds give other runs"
+    for row in rows[4:]:
+        assert "safe_distance" in row["error"] and "expected a finite number" in row["error"]
+        assert row["state_hash"] == ""
+
+
+def killing(workers: int, times: int, killed: list[int]) -> threading.Thread:
+    """A thread that kills a busy sweep worker ``times`` times (when ``workers`` are up and
+    a run is under way), noting each pid in ``killed``."""
+
+    def kill() -> None:
+        deadline = time.monotonic() + 120
+        while len(killed) < times and time.monotonic() < deadline:
+            time.sleep(0.5)
+            alive = [p for p in multiprocessing.active_children() if p.pid not in killed and p.is_alive()]
+            if len(alive) == workers:
+                time.sleep(2.0)  # its kernels loaded, a run under way
+                os.kill(alive[0].pid, signal.SIGKILL)
+                killed.append(alive[0].pid)
+
+    thread = threading.Thread(target=kill)
+    thread.start()
+    return thread
+
+
+@pytest.mark.slow  # four runs in two workers, one of them killed once
+def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again():
+    killed: list[int] = []
+    killer = killing(2, 1, killed)
+    done = run_local("schoolyard", 6.0, plan_runs([0, 1, 2, 3], {}), workers=2)
+    killer.join()
+    assert len(killed) == 1
+    assert [r["run"] for r in done] == [0, 1, 2, 3] and all(r["error"] == "" for r in done), done
+    with Scene.load("schoolyard", seed=2) as scene:  # a run done again is the same run
+        scene.run(6.0)
+        assert done[2]["state_hash"] == scene.state_hash()
+
+
+def test_a_run_whose_worker_dies_twice_is_an_error_row():
+    killed: list[int] = []
+    killer = killing(1, 2, killed)
+    done = run_local("schoolyard", 60.0, [SweepRun(0, 0)], workers=1, retries=1)
+    killer.join()
+    assert len(killed) == 2 and len(done) == 1
+    assert "its worker died 2 times (exit -9)" in done[0]["error"]
+
+
+def test_sweep_arguments_and_dotted_overrides_fail_clearly(capsys):
+    assert main(["sweep", "schoolyard", "--seeds", "3-x"]) == 2
+    assert "--seeds: '3-x' is not a seed or a range" in capsys.readouterr().err
+    assert main(["sweep", "schoolyard", "--set", "attachment.safe_distance"]) == 2
+    assert "expected NAME=VALUE[,VALUE...]" in capsys.readouterr().err
+    assert main(["sweep", "schoolyard", "--set", "atachment.safe_distance=3", "-o", "x.csv"]) == 2
+    assert "(did you mean 'attachment'?)" in capsys.readouterr().err
+    with pytest.raises(SceneError, match="'settings.iterations' is not a mapping"):
+        Scene.load("schoolyard", **{"settings.iterations.x": 3})
