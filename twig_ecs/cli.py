@@ -153,9 +153,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise TwigError("--workers: give 1 or more")
     sweep.check_names(args.scene, list(grid), args.content)
-    rows = sweep.run_local(args.scene, args.seconds, runs, args.content, args.workers,
-                           on_row=sweep.SweepProgress(len(runs)))  # fmt: skip
+    progress = sweep.SweepProgress(len(runs))
+    if args.cluster:
+        rows = sweep.run_cluster(args.cluster, args.scene, args.seconds, runs, args.content, progress)
+    else:
+        rows = sweep.run_local(args.scene, args.seconds, runs, args.content, args.workers, progress)
     path = sweep.write_table(rows, args.output, list(grid), args.metric)
+    if args.plot:
+        from twig_ecs.sweepplot import plot_chance
+
+        if not grid or not args.metric:
+            raise TwigError("--plot draws the first --metric against the first --set: give both")
+        print(f"plot: {plot_chance(rows, next(iter(grid)), args.metric[0], args.plot)}")
     for line in sweep.summary(rows, list(grid), args.metric):
         print(line)
     stopped = len(rows) < len(runs)
@@ -288,7 +297,17 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DOTTED.PATH",
         help="keep only these report figures (e.g. characters.small_child.hugs; repeatable)",
     )
+    p.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="draw the share of runs with the first --metric above 0, by the first --set's value",
+    )
     p.add_argument("--workers", type=int, default=None, help="worker processes (default: one per core)")
+    p.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run on the Dask cluster with this scheduler instead (pip install 'twig-ecs[cluster]')",
+    )
     p.add_argument("--content", action="append", default=[], metavar="DIR",
                    help="extra folder of body templates and scenes (repeatable)")  # fmt: skip
     p.set_defaults(func=cmd_sweep, seed=0)

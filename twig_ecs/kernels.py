@@ -63,6 +63,17 @@ _WORKER_CODE = (
 _checked = False
 
 
+def worker_environment() -> dict[str, str]:
+    """The environment of a worker process of ours (a kernel build's, a sweep's): this one's,
+    importing the very twig_ecs this process runs (a checkout or an install) and sharing its
+    kernel cache folder (the fallback one included)."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    if cache_folder() is not None:
+        env["TWIG_CACHE_DIR"] = str(cache_folder().parent)
+    return env
+
+
 # -- is everything compiled? ---------------------------------------------------------------
 
 
@@ -139,13 +150,7 @@ class KernelBuild:
                "parameters": dict(parameters or {}), "claims": self._claims,
                "trust": is_trusted()}  # fmt: skip  # the workers trust the scene as this process does
         count = workers or min(2, os.cpu_count() or 1)
-        env = dict(os.environ)
-        # the workers import the very twig_ecs this process runs (a checkout or an install)
-        env["PYTHONPATH"] = os.pathsep.join([str(_PACKAGE.parent), env.get("PYTHONPATH", "")]).rstrip(
-            os.pathsep
-        )
-        if cache_folder() is not None:
-            env["TWIG_CACHE_DIR"] = str(cache_folder().parent)  # the same folder, fallback included
+        env = worker_environment()
         self._procs = []
         for k in range(count):
             # the last worker counts the kernels (a plain-Python step first) and, one of two,

@@ -13,14 +13,16 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
-import multiprocessing
 import os
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
-from multiprocessing.connection import Connection, wait
+from multiprocessing.connection import wait
 from pathlib import Path
 from typing import Any
 
@@ -106,61 +108,127 @@ def run_one(scene: str, seconds: float, content: Sequence[str], run: SweepRun) -
 
 # -- local workers ---------------------------------------------------------------------------------
 
+#: What a local worker process runs: :func:`serve` with the sweep's job.
+_WORKER_CODE = "import sys, json; from twig_ecs.sweep import serve; serve(json.loads(sys.argv[1]))"
 
-def _worker(conn: Connection, scene: str, seconds: float, content: Sequence[str]) -> None:
-    """A worker process: load the kernels once, then run what it is sent until told to stop."""
-    os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # one run per core: threads would only contend
+
+def serve(job: dict) -> None:
+    """A worker process: load the kernels once, then run each run read from stdin (a JSON
+    line), answering with its row (a JSON line), until stdin ends."""
+    answers = os.fdopen(os.dup(1), "w")  # the rows' own channel; anything printed goes to stderr
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
     from twig_ecs import Scene
 
+    scene, seconds, content = job["scene"], job["seconds"], job["content"]
     try:
-        with Scene.load(scene, content=list(content)) as warm:
+        with Scene.load(scene, content=content) as warm:
             warm.step()
     except TwigError:
         pass  # the runs will each say why
-    while True:
-        run = conn.recv()
-        if run is None:
-            return
+    for line in sys.stdin:
+        run = SweepRun(**json.loads(line))
         try:
-            conn.send(run_one(scene, seconds, content, run))
+            row = run_one(scene, seconds, content, run)
         except Exception as exc:  # noqa: BLE001 - any failure of a run is its row, never a lost sweep
-            conn.send(
-                {"run": run.index, "seed": run.seed, **run.values, "error": f"{type(exc).__name__}: {exc}"}
-            )
+            row = error_row(run, f"{type(exc).__name__}: {exc}")
+        answers.write(json.dumps(row) + "\n")
+        answers.flush()
 
 
 class _Worker:
-    """A worker process and the run it has (None when idle)."""
+    """A worker process (``python -c``: no ``__main__`` of the caller is run again in it, as
+    multiprocessing's spawn would) and the run it has (None when idle)."""
 
-    def __init__(self, context, scene: str, seconds: float, content: Sequence[str]) -> None:
-        self.conn, child = context.Pipe()
-        self.process = context.Process(
-            target=_worker, args=(child, scene, seconds, list(content)), daemon=True
-        )
-        self.process.start()
-        child.close()
+    def __init__(self, scene: str, seconds: float, content: Sequence[str]) -> None:
+        from twig_ecs.kernels import worker_environment
+
+        env = worker_environment()
+        env["NUMBA_NUM_THREADS"] = "1"  # a run per core: threads would only contend
+        job = json.dumps({"scene": scene, "seconds": seconds, "content": [str(c) for c in content]})
+        self.log = tempfile.TemporaryFile(mode="w+")
+        command = [sys.executable, "-P", "-c", _WORKER_CODE, job]
+        pipe = subprocess.PIPE
+        self.process = subprocess.Popen(command, stdin=pipe, stdout=pipe, stderr=self.log, text=True, env=env)
         self.run: SweepRun | None = None
 
     def give(self, run: SweepRun) -> None:
+        """Send it a run."""
         self.run = run
-        self.conn.send(run)
+        self.process.stdin.write(
+            json.dumps({"index": run.index, "seed": run.seed, "values": run.values}) + "\n"
+        )
+        self.process.stdin.flush()
+
+    def answer(self) -> dict | None:
+        """Its row, or None if it died (its output ended)."""
+        line = self.process.stdout.readline()
+        return json.loads(line) if line else None
+
+    def death(self) -> str:
+        """How it ended: its exit code and the last line it wrote to stderr."""
+        code = self.process.wait()
+        self.log.seek(0)
+        lines = self.log.read().strip().splitlines()
+        return f"exit {code}" + (f": {lines[-1][-300:]}" if lines else "")
 
     def stop(self) -> None:
+        """End it (stdin closed: it returns), or kill it if it does not."""
         try:
-            self.conn.send(None)
-        except OSError:
-            pass
-        self.process.join(timeout=5)
-        if self.process.is_alive():
+            self.process.stdin.close()
+            self.process.wait(timeout=5)
+        except (OSError, subprocess.TimeoutExpired):
             self.process.kill()
+            self.process.wait()
+        self.log.close()
 
 
-def _answer(worker: _Worker) -> dict | None:
-    """The row a worker sent, or None (nothing yet, or its end of the pipe is gone: it died)."""
+def run_local(scene: str, seconds: float, runs: Sequence[SweepRun], content: Sequence[str] = (),
+              workers: int | None = None, on_row: Callable[[dict], None] | None = None,
+              retries: int = 1) -> list[dict]:  # fmt: skip
+    """Run every run in ``workers`` processes (default: one per core); rows in run order.
+
+    A run whose worker dies (killed, out of memory) is given to a fresh worker ``retries``
+    more times, then becomes an error row. ``on_row`` sees each row as it comes (progress);
+    on Ctrl-C the rows finished so far are returned, and the workers stopped.
+    """
+    count = max(1, min(workers or os.cpu_count() or 1, len(runs)))
+    todo = list(reversed(runs))
+    tries: dict[int, int] = {}
+    rows: dict[int, dict] = {}
+
+    def done(row: dict) -> None:
+        rows[row["run"]] = row
+        if on_row is not None:
+            on_row(row)
+
+    pool = [_Worker(scene, seconds, content) for _ in range(count)]
     try:
-        return worker.conn.recv() if worker.conn.poll() else None
-    except (EOFError, OSError):
-        return None
+        while len(rows) < len(runs):
+            for worker in pool:
+                if worker.run is None and todo:
+                    worker.give(todo.pop())
+            busy = [w for w in pool if w.run is not None]
+            ready = wait([w.process.stdout for w in busy])
+            for worker in [w for w in busy if w.process.stdout in ready]:
+                row, run = worker.answer(), worker.run
+                worker.run = None
+                if row is not None:
+                    done(row)
+                    continue
+                tries[run.index] = tries.get(run.index, 0) + 1  # it died with this run in hand
+                if tries[run.index] > retries:
+                    done(error_row(run, f"its worker died {tries[run.index]} times ({worker.death()})"))
+                else:
+                    todo.append(run)
+                worker.stop()
+                pool[pool.index(worker)] = _Worker(scene, seconds, content)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        for worker in pool:
+            worker.stop()
+    return [rows[k] for k in sorted(rows)]
 
 
 def check_names(scene: str, names: Sequence[str], content: Sequence[str] = ()) -> None:
@@ -180,53 +248,44 @@ def check_names(scene: str, names: Sequence[str], content: Sequence[str] = ()) -
                             "attachment.safe_distance sets any value of the file)")  # fmt: skip
 
 
-def run_local(scene: str, seconds: float, runs: Sequence[SweepRun], content: Sequence[str] = (),
-              workers: int | None = None, on_row: Callable[[dict], None] | None = None,
-              retries: int = 1) -> list[dict]:  # fmt: skip
-    """Run every run in ``workers`` processes (default: one per core); rows in run order.
+# -- a cluster ---------------------------------------------------------------------------------------
 
-    A run whose worker dies (killed, out of memory) is given to a fresh worker ``retries``
-    more times, then becomes an error row. ``on_row`` sees each row as it comes (progress);
-    on Ctrl-C the rows finished so far are returned, and the workers stopped.
+
+def run_cluster(address: str, scene: str, seconds: float, runs: Sequence[SweepRun],
+                content: Sequence[str] = (), on_row: Callable[[dict], None] | None = None,
+                connect_timeout: float = 20.0) -> list[dict]:  # fmt: skip
+    """Run every run on the Dask cluster whose scheduler is at ``address`` (``tcp://HOST:PORT``):
+    the same rows as :func:`run_local`, in run order.
+
+    Each run is one task; its workers import twig-ecs (the same version) and keep the
+    kernels loaded between runs. A task that raises, or whose workers die more often than
+    the scheduler allows (``distributed.scheduler.allowed-failures``), is an error row.
     """
-    context = multiprocessing.get_context("spawn")  # no fork of a process with threads
-    count = max(1, min(workers or os.cpu_count() or 1, len(runs)))
-    todo = list(reversed(runs))
-    tries: dict[int, int] = {}
-    rows: dict[int, dict] = {}
-    pool = [_Worker(context, scene, seconds, content) for _ in range(count)]
     try:
-        while len(rows) < len(runs):
-            for worker in pool:
-                if worker.run is None and todo:
-                    worker.give(todo.pop())
-            busy = [w for w in pool if w.run is not None]
-            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
-            for worker in busy:
-                row = _answer(worker) if worker.conn in ready else None
-                if row is not None:
-                    rows[row["run"]] = row
-                    worker.run = None
-                    if on_row is not None:
-                        on_row(row)
-                elif worker.process.sentinel in ready or not worker.process.is_alive():  # died, a run in hand
-                    lost = worker.run
-                    tries[lost.index] = tries.get(lost.index, 0) + 1
-                    if tries[lost.index] > retries:
-                        worker.process.join(timeout=5)  # (its exit code is set once joined)
-                        code = worker.process.exitcode
-                        died = f"its worker died {tries[lost.index]} times (exit {code})"
-                        rows[lost.index] = error_row(lost, died)
-                        if on_row is not None:
-                            on_row(rows[lost.index])
-                    else:
-                        todo.append(lost)
-                    pool[pool.index(worker)] = _Worker(context, scene, seconds, content)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        for worker in pool:
-            worker.stop()
+        from distributed import Client, as_completed
+    except ImportError:
+        raise TwigError("--cluster needs Dask's scheduler: pip install 'twig-ecs[cluster]'") from None
+    try:
+        client = Client(address, timeout=f"{connect_timeout}s")
+    except (OSError, TimeoutError) as exc:
+        raise TwigError(f"cannot reach a Dask scheduler at {address}: {exc}") from None
+    rows: dict[int, dict] = {}
+    with client:
+        futures = {
+            client.submit(run_one, scene, seconds, list(content), run, pure=False): run for run in runs
+        }
+        try:
+            for future in as_completed(futures):
+                run = futures[future]
+                try:
+                    row = future.result()
+                except Exception as exc:  # noqa: BLE001 - a run's failure is its row (KilledWorker too)
+                    row = error_row(run, f"{type(exc).__name__}: {exc}")
+                rows[run.index] = row
+                if on_row is not None:
+                    on_row(row)
+        except KeyboardInterrupt:
+            client.cancel(list(futures))
     return [rows[k] for k in sorted(rows)]
 
 
@@ -285,7 +344,8 @@ def summary(rows: Sequence[dict], swept: Sequence[str], metrics: Sequence[str]) 
         for metric in metrics:
             values = [float(r[metric]) for r in done if isinstance(r.get(metric), (int, float))]
             if values:
-                parts.append(f"{metric} mean {sum(values) / len(values):.3g}")
+                above = sum(v > 0 for v in values) / len(values)
+                parts.append(f"{metric} mean {sum(values) / len(values):.3g}, above 0 in {above:.0%}")
         lines.append(f"{label}: " + ", ".join(parts))
     return lines
 
