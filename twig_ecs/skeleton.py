@@ -186,8 +186,13 @@ def fit(node_names: tuple[str, ...], rest: np.ndarray, positions: np.ndarray, he
     def node(name: str) -> np.ndarray:
         return positions[:, at[name]]
 
+    placed = np.empty((frames, count, 3))  # where forward kinematics puts each joint so far
     for j, (_, here, _, rule, arg) in enumerate(HUMANOID):
         parent = world[:, parents[j]] if parents[j] >= 0 else np.broadcast_to(np.eye(3), (frames, 3, 3))
+        if parents[j] >= 0:
+            placed[:, j] = placed[:, parents[j]] + parent @ offsets[j]
+        else:
+            placed[:, j] = node(here)
         if rule == FRAME:
             left, right, low, high = arg
             now = _frame(node(left) - node(right), node(high) - node(low))
@@ -195,7 +200,9 @@ def fit(node_names: tuple[str, ...], rest: np.ndarray, positions: np.ndarray, he
             world[:, j] = now @ bound.T
             local[:, j] = np.swapaxes(parent, -1, -2) @ world[:, j]
         elif rule == AIM:
-            direction = _unit(node(arg) - node(here))
+            # aimed from where the joint was placed, not from its node: an error up the chain
+            # (a stretched link) is not handed down to the bones below
+            direction = _unit(node(arg) - placed[:, j])
             seen = (np.swapaxes(parent, -1, -2) @ direction[..., None])[..., 0]  # in the parent's frame
             local[:, j] = _arc(_unit(rest[at[arg]] - rest[at[here]]), _unit(seen))
             world[:, j] = parent @ local[:, j]
