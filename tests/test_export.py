@@ -292,3 +292,18 @@ def test_export_continues_a_snapshot(tmp_path, capsys):
     out = tmp_path / "from-snapshot.glb"
     assert main(["export", str(snap), "-o", str(out), "--seconds", "0.5"]) == 0
     assert out.stat().st_size > 0 and scene_time == pytest.approx(0.5, abs=0.02)
+
+
+@pytest.mark.parametrize("shape", ["cylinder", "sphere"])
+def test_mesh_triangles_face_outwards_and_none_is_degenerate(shape):
+    from twig_ecs.gltfwriter import cylinder, sphere
+
+    verts, normals, tris = (
+        cylinder(np.zeros(3), np.array([0.0, 1.0, 0.0]), 0.1)
+        if shape == "cylinder"
+        else sphere(np.zeros(3), 0.11)
+    )
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    face = np.cross(b - a, c - a)  # glTF: counter-clockwise seen from the front
+    assert (np.linalg.norm(face, axis=1) > 1e-9).all()
+    assert ((face * normals[tris].sum(1)).sum(1) > 0).all()

@@ -67,9 +67,11 @@ def sphere(centre: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, n
     ).reshape(-1, 3)
     r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols), indexing="ij")
     a, b = r * cols + c, r * cols + (c + 1) % cols
-    tris = np.concatenate(
-        [np.stack([a, a + cols, b], -1).reshape(-1, 3), np.stack([b, a + cols, b + cols], -1).reshape(-1, 3)]
-    )
+    # counter-clockwise seen from outside (glTF's front faces); none at the poles, where a
+    # row's vertices all coincide
+    upper = np.stack([a, b, a + cols], -1)[1:].reshape(-1, 3)
+    lower = np.stack([b, b + cols, a + cols], -1)[:-1].reshape(-1, 3)
+    tris = np.concatenate([upper, lower])
     return centre + radius * normals, normals, tris
 
 
