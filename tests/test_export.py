@@ -125,6 +125,7 @@ def gltf(yard):
     joints = {}
     for skin in doc.skins:
         joints[skin.name] = world_t[:, skin.joints]
+        joints[skin.name + " rotations"] = world_r[:, skin.joints]
         ibm = _read(doc, blob, skin.inverseBindMatrices).reshape(-1, 4, 4)
         joints[skin.name + " bind"] = -ibm[:, 3, :3]  # column-major translations
     return {"joints": joints, "rotations": rotations, "doc": doc}
@@ -182,6 +183,16 @@ def test_bvh_has_the_run_frame_count_and_the_cmu_channel_layout(yard):
     assert set(layouts) == {name for name, *_ in HUMANOID}
     assert layouts["Hips"] == ["Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation"]
     assert all(c == ["Zrotation", "Xrotation", "Yrotation"] for name, c in layouts.items() if name != "Hips")
+
+
+@pytest.mark.parametrize("figure", ["parent", "big_child", "small_child"])
+def test_the_head_faces_where_the_character_looks(yard, gltf, figure):
+    head = [name for name, *_ in HUMANOID].index("Head")
+    forward = gltf["joints"][figure + " rotations"][:, head] @ np.array([0.0, 0.0, 1.0])  # rest faces +z
+    looks = yard.tracks[figure].face_directions
+    angle = np.degrees(np.arccos(np.clip((forward * looks).sum(-1), -1.0, 1.0)))
+    assert angle.max() < 1.0
+    assert np.ptp(np.degrees(np.arctan2(looks[:, 0], looks[:, 2]))) > 20  # it did look about
 
 
 def test_bone_lengths_stay_their_rest_lengths(gltf):

@@ -37,11 +37,10 @@ def check_output(path: str | Path) -> str:
 
 def skeletons(recorder: MotionRecorder, names: list[str] | None = None) -> dict[str, Skeleton]:
     """The fitted skeleton of each figure recorded (or of those ``names``)."""
-    scene = recorder.scene
     out = {}
     for name in names if names is not None else recorder.figures():
         track = recorder.tracks[name]
-        out[name] = fit(track.node_names, track.rest, track.positions, scene.entity(name).body.height)
+        out[name] = fit(track.node_names, track.rest, track.positions, track.height, track.face_directions)
     return out
 
 

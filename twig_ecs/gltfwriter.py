@@ -285,6 +285,15 @@ def _add_figure(out: _Builder, track: BodyTrack, skeleton: Skeleton, animate) ->
     for rgba, geometry, _, ends in _shapes(track, track.rest):
         joint = LINK_JOINTS.get(ends, LINK_JOINTS.get(ends[::-1]))
         parts.append((rgba, geometry, joint_of[joint] if joint else node_joint.get(ends[0], 0)))
+    head = [
+        radius
+        for a, b, radius, _ in track.links
+        if {track.node_names[a], track.node_names[b]} == {"neck", "head"}
+    ]
+    if track.faces is not None and head:  # a nose, as twig draws it, shows where the face points
+        centre, r = track.rest[track.node_names.index("head")], head[0]
+        nose = cylinder(centre + [0.0, 0.0, 0.55 * r], centre + [0.0, -0.12 * r, 1.22 * r], 0.2 * r)
+        parts.append((track.color, nose, joint_of["Head"]))
     out.node(
         gl.Node(name=f"{track.name} body", mesh=out.mesh(track.name, parts), skin=len(out.doc.skins) - 1),
         root=True,

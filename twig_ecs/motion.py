@@ -40,12 +40,21 @@ class BodyTrack:
     sphere: np.ndarray  # (n,) bool: the node is drawn as a sphere
     links: list[tuple[int, int, float, tuple[float, float, float, float]]]  # visible: a, b, radius, rgba
     color: tuple[float, float, float, float]
+    height: float  # m, as spawned (the skeleton's scale)
     frames: list[np.ndarray] = field(default_factory=list)
+    #: a character's face direction per frame (its gaze controller's ``head_dir``: the head is one
+    #: node, so where it looks is controller state); None for a body that is no character
+    faces: list[np.ndarray] | None = None
 
     @property
     def positions(self) -> np.ndarray:
         """(frames, nodes, 3) node positions (m)."""
         return np.stack(self.frames) if self.frames else np.zeros((0, len(self.node_names), 3))
+
+    @property
+    def face_directions(self) -> np.ndarray | None:
+        """(frames, 3) unit vectors the face points along, or None (no character)."""
+        return np.stack(self.faces) if self.faces else None
 
     @property
     def is_figure(self) -> bool:
@@ -100,16 +109,19 @@ class MotionRecorder:
                     (int(lk.a[row]) - rows.start, int(lk.b[row]) - rows.start, float(lk.radius[row]), rgba)
                 )
         color = tuple(float(c) for c in state.nodes.color[rows.start])
-        return BodyTrack(
-            name,
-            body.template,
-            body.node_names,
-            rest,
-            state.nodes.radius[rows].copy(),
-            (state.nodes.flags[rows] & NODE_SPHERE) != 0,
-            links,
-            color,
+        sphere = (state.nodes.flags[rows] & NODE_SPHERE) != 0
+        radius = state.nodes.radius[rows].copy()
+        track = BodyTrack(
+            name, body.template, body.node_names, rest, radius, sphere, links, color, body.height
         )
+        if self._character_row(body) is not None:
+            track.faces = []
+        return track
+
+    def _character_row(self, body: Body) -> int | None:
+        ch = self.scene.state.characters
+        rows = np.flatnonzero(ch.body[: ch.count] == body.index)
+        return int(rows[0]) if len(rows) else None
 
     def _grab(self) -> None:
         pos = self.scene.state.nodes.pos
@@ -118,6 +130,10 @@ class MotionRecorder:
                 raise MotionError(f"'{name}' was removed while its motion was being recorded")
             body = self.scene.entity(name).body
             track.frames.append(pos[body.node_start : body.node_start + len(track.node_names)].copy())
+            if track.faces is not None:
+                row = self._character_row(body)  # rows move when bodies are removed
+                assert row is not None, f"'{name}' stopped being a character"
+                track.faces.append(self.scene.state.characters.head_dir[row].copy())
 
     @property
     def frame_count(self) -> int:

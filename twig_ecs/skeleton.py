@@ -12,7 +12,10 @@ offset is the rest distance between its node and its parent's. Per frame:
   in its parent's frame, that takes its rest bone direction to the current one - the
   twist it carries is its parent's, so the hip bar twists the legs, the shoulder bar the
   arms;
-- a *tip* joint (head, hands, feet: one node each, no bone of their own) keeps its parent's
+- the *head* faces where the character's gaze controller turned its face (``head_dir``:
+  the head is one node, so its facing is controller state), its y axis up the neck; a
+  body with no face (the ragdoll) keeps the neck's rotation;
+- a *tip* joint (hands, feet: one node each, no bone of their own) keeps its parent's
   rotation.
 
 Quaternions are (x, y, z, w), kept sign-continuous from frame to frame (no flips).
@@ -24,10 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-FRAME, AIM, TIP = "frame", "aim", "tip"
+FRAME, AIM, TIP, FACE = "frame", "aim", "tip", "face"
 
 #: (joint, node it sits on, parent joint, rule, for AIM: the node it points at;
-#: for FRAME: (bar left end, bar right end, up from, up to)). Parents come first.
+#: for FRAME: (bar left end, bar right end, up from, up to); for FACE: the node below it).
+#: Parents come first.
 HUMANOID: tuple[tuple[str, str, str | None, str, object], ...] = (
     ("Hips", "pelvis", None, FRAME, ("l_hip", "r_hip", "pelvis", "spine")),
     ("LeftUpLeg", "l_hip", "Hips", AIM, "l_knee"),
@@ -39,7 +43,7 @@ HUMANOID: tuple[tuple[str, str, str | None, str, object], ...] = (
     ("Spine", "spine", "Hips", AIM, "neck"),
     ("Chest", "neck", "Spine", FRAME, ("l_shoulder", "r_shoulder", "spine", "neck")),
     ("Neck", "neck", "Chest", AIM, "head"),
-    ("Head", "head", "Neck", TIP, None),
+    ("Head", "head", "Neck", FACE, "neck"),
     ("LeftShoulder", "neck", "Chest", AIM, "l_shoulder"),
     ("LeftArm", "l_shoulder", "LeftShoulder", AIM, "l_elbow"),
     ("LeftForeArm", "l_elbow", "LeftArm", AIM, "l_hand"),
@@ -113,6 +117,13 @@ def _frame(bar: np.ndarray, up: np.ndarray) -> np.ndarray:
     return np.stack([x, y, np.cross(x, y)], axis=-1)
 
 
+def _facing(forward: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """(…, 3, 3) orthonormal frame, columns x, y (``up`` made orthogonal), z (along ``forward``)."""
+    z = _unit(forward)
+    y = _unit(up - (up * z).sum(-1, keepdims=True) * z)
+    return np.stack([np.cross(y, z), y, z], axis=-1)
+
+
 def _arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(F, 3, 3) the smallest rotation taking unit vector ``a`` (3,) to unit vectors ``b`` (F, 3)."""
     v = np.cross(a, b)
@@ -168,10 +179,13 @@ def continuous(q: np.ndarray) -> np.ndarray:
     return q
 
 
-def fit(node_names: tuple[str, ...], rest: np.ndarray, positions: np.ndarray, height: float) -> Skeleton:
+def fit(node_names: tuple[str, ...], rest: np.ndarray, positions: np.ndarray, height: float,
+        face: np.ndarray | None = None) -> Skeleton:  # fmt: skip
     """Fit the humanoid hierarchy to a figure's node track ``positions`` (F, n, 3) (m).
 
     ``rest`` (n, 3) is the body's rest pose, which gives the bone offsets and the bind pose.
+    ``face`` (F, 3): where a character's face points each frame (None: the head keeps the
+    neck's rotation).
     """
     at = {name: k for k, name in enumerate(node_names)}
     names = tuple(j[0] for j in HUMANOID)
@@ -206,6 +220,11 @@ def fit(node_names: tuple[str, ...], rest: np.ndarray, positions: np.ndarray, he
             seen = (np.swapaxes(parent, -1, -2) @ direction[..., None])[..., 0]  # in the parent's frame
             local[:, j] = _arc(_unit(rest[at[arg]] - rest[at[here]]), _unit(seen))
             world[:, j] = parent @ local[:, j]
+        elif rule == FACE and face is not None:
+            now = _facing(face, node(here) - node(arg))
+            bound = _facing(np.array([0.0, 0.0, 1.0]), rest[at[here]] - rest[at[arg]])  # rest faces +z
+            world[:, j] = now @ bound.T
+            local[:, j] = np.swapaxes(parent, -1, -2) @ world[:, j]
         else:
             local[:, j] = np.eye(3)
             world[:, j] = parent
