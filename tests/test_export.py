@@ -128,7 +128,8 @@ def gltf(yard):
         joints[skin.name + " rotations"] = world_r[:, skin.joints]
         ibm = _read(doc, blob, skin.inverseBindMatrices).reshape(-1, 4, 4)
         joints[skin.name + " bind"] = -ibm[:, 3, :3]  # column-major translations
-    return {"joints": joints, "rotations": rotations, "doc": doc}
+    local = {node.name: rot[:, k] for k, node in enumerate(nodes)}
+    return {"joints": joints, "rotations": rotations, "doc": doc, "local": local}
 
 
 def _parents_first(parent: dict[int, int], count: int) -> list[int]:
@@ -193,6 +194,24 @@ def test_the_head_faces_where_the_character_looks(yard, gltf, figure):
     angle = np.degrees(np.arccos(np.clip((forward * looks).sum(-1), -1.0, 1.0)))
     assert angle.max() < 1.0
     assert np.ptp(np.degrees(np.arctan2(looks[:, 0], looks[:, 2]))) > 20  # it did look about
+
+
+@pytest.mark.parametrize("figure", ["parent", "big_child", "small_child"])
+def test_a_bent_knee_turns_the_shin_about_the_knee_hinge_only(yard, gltf, figure):
+    track = yard.tracks[figure]
+    at = {name: k for k, name in enumerate(track.node_names)}
+    p, rest = track.positions, track.rest
+    for side in "lr":
+        hip, knee, foot = (at[f"{side}_{n}"] for n in ("hip", "knee", "foot"))
+        hinge = np.cross(rest[knee] - rest[hip], rest[foot] - rest[knee])  # the axis at rest: sideways
+        hinge /= np.linalg.norm(hinge)
+        thigh, shin = p[:, knee] - p[:, hip], p[:, foot] - p[:, knee]
+        cosine = (thigh * shin).sum(-1) / np.linalg.norm(thigh, axis=-1) / np.linalg.norm(shin, axis=-1)
+        bend = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+        q = gltf["local"][f"{figure}:{'Left' if side == 'l' else 'Right'}Leg"][bend > 25]
+        axis = q[:, :3] / np.linalg.norm(q[:, :3], axis=-1, keepdims=True)
+        off = np.degrees(np.arccos(np.clip(np.abs(axis @ hinge), 0.0, 1.0)))
+        assert len(off) > 30 and off.max() < 1.0, (side, off.max())
 
 
 def test_bone_lengths_stay_their_rest_lengths(gltf):
