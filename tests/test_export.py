@@ -301,6 +301,14 @@ def test_export_of_an_unknown_character_names_the_ones_there_are(capsys, tmp_pat
     assert not out.exists()
 
 
+def test_export_into_a_missing_folder_or_of_an_empty_scene_is_an_error(capsys, tmp_path):
+    assert main(["export", "schoolyard", "-o", str(tmp_path / "no" / "yard.glb"), "--seconds", "0.1"]) == 2
+    assert "no folder" in capsys.readouterr().err
+    assert main(["export", "empty", "-o", str(tmp_path / "empty.glb"), "--seconds", "0.1"]) == 2
+    assert "no bodies" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_export_of_one_character_writes_one_bvh(capsys, tmp_path):
     out = tmp_path / "kid.bvh"
     assert (

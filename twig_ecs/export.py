@@ -32,6 +32,9 @@ def check_output(path: str | Path) -> str:
             f"cannot export to '{path}': give a file ending in .glb (glTF 2.0 binary) "
             "or .bvh (BVH motion of the characters)"
         )
+    folder = Path(path).parent
+    if not folder.is_dir():
+        raise ExportError(f"cannot export to '{path}': there is no folder '{folder}' (make it first)")
     return suffix
 
 
@@ -58,6 +61,15 @@ def write(recorder: MotionRecorder, path: str | Path, character: str | None = No
     ``character``: only this figure (a .bvh gets one file; a .glb keeps every body that is
     not a figure - props, the ball - and leaves the other figures out).
     """
+    try:
+        return _write(recorder, path, character)
+    except OSError as exc:  # a full disk, a folder one may not write in
+        raise ExportError(f"cannot write '{exc.filename or path}': {exc.strerror or exc}") from None
+
+
+def _write(recorder: MotionRecorder, path: str | Path, character: str | None) -> list[Path]:
+    if not recorder.tracks:
+        raise ExportError(f"'{recorder.scene.name}' has no bodies: there is no motion to export")
     fmt = check_output(path)
     figures = recorder.figures()
     if character is not None:

@@ -202,14 +202,18 @@ def write_glb(tracks: list[BodyTrack], skeletons: dict[str, Skeleton], path: str
     """Write the recorded ``tracks`` as a .glb at ``path``; bodies named in ``skeletons`` are skinned."""
     out = _Builder()
     frames = len(tracks[0].frames) if tracks else 0
-    times = out.accessor((np.arange(frames) / fps).astype(np.float32), "SCALAR", FLOAT, bounds=True)
+    times: list[int] = []  # the key times' accessor, made with the first channel
     channels, samplers = [], []
 
     def animate(node: int, path: str, values: np.ndarray) -> None:
         kind = "VEC4" if values.shape[-1] == 4 else "VEC3"
+        if not times:
+            times.append(
+                out.accessor((np.arange(frames) / fps).astype(np.float32), "SCALAR", FLOAT, bounds=True)
+            )
         samplers.append(
             gl.AnimationSampler(
-                input=times,
+                input=times[0],
                 output=out.accessor(values.astype(np.float32), kind, FLOAT),
                 interpolation="LINEAR",
             )
@@ -245,6 +249,7 @@ def write_glb(tracks: list[BodyTrack], skeletons: dict[str, Skeleton], path: str
             animate(node, "rotation", q)
     if channels:
         out.doc.animations.append(gl.Animation(name="twig run", channels=channels, samplers=samplers))
+    assert out.blob, "a scene with no bodies has nothing to write (glTF forbids an empty buffer)"
     out.doc.buffers.append(gl.Buffer(byteLength=len(out.blob)))
     out.doc.set_binary_blob(bytes(out.blob))
     path = Path(path)
