@@ -95,18 +95,25 @@ def _write(recorder: MotionRecorder, path: str | Path, character: str | None) ->
     return [write_glb(tracks, skeletons(recorder, figures), path, recorder.fps)]
 
 
-def _open(source: str, seed: int, content, parameters: dict):
-    """A scene from a scene file or name, or from a snapshot file (told apart by its first bytes)."""
-    from twig_ecs.scene import Scene
+def is_snapshot(source: str | Path) -> bool:
+    """Is ``source`` a snapshot file (``twig run --save``), told by its first bytes?"""
     from twig_ecs.snapshot import MAGIC
 
     candidate = Path(source)
-    if candidate.is_file():
-        with candidate.open("rb") as f:
-            if f.read(len(MAGIC)) == MAGIC:
-                from twig_ecs.snapshot import load
+    if not candidate.is_file():
+        return False
+    with candidate.open("rb") as f:
+        return f.read(len(MAGIC)) == MAGIC
 
-                return load(candidate)
+
+def _open(source: str, seed: int, content, parameters: dict):
+    """A scene from a scene file or name, or from a snapshot file."""
+    from twig_ecs.scene import Scene
+
+    if is_snapshot(source):
+        from twig_ecs.snapshot import load
+
+        return load(source)
     return Scene.load(source, seed=seed, content=content, **parameters)
 
 
@@ -149,6 +156,12 @@ def export_motion(
 
 def cmd_export(args: argparse.Namespace) -> int:
     """``twig export``: run a scene or snapshot and write its motion as .glb or .bvh."""
+    from twig_ecs import kernels
+
+    check_output(args.output)  # before a first run's kernels compile, which takes minutes
+    if kernels.needs_build():  # a first run: compile them up front, saying so (as `twig run` does)
+        source = "schoolyard" if is_snapshot(args.scene) else args.scene  # a snapshot: the usual kernels
+        kernels.prepare(source, seed=args.seed, content=args.content, parameters=args.parameters)
     report = export_motion(
         args.scene,
         args.output,
