@@ -170,15 +170,14 @@ class _Builder:
         return len(self.doc.meshes) - 1
 
 
-def _shapes(track: BodyTrack, pose: np.ndarray) -> list[tuple[tuple, tuple, int | None, tuple[str, str]]]:
-    """The visible capsules and spheres of ``track`` in ``pose`` (n, 3): (rgba, geometry, None, (a, b))."""
+def _shapes(track: BodyTrack, pose: np.ndarray) -> list[tuple[tuple, tuple, tuple[str, str]]]:
+    """The visible capsules and spheres of ``track`` in ``pose`` (n, 3): (rgba, geometry, its nodes)."""
     out = []
     for a, b, radius, rgba in track.links:
-        names = (track.node_names[a], track.node_names[b])
-        out.append((rgba, cylinder(pose[a], pose[b], radius), None, names))
+        out.append((rgba, cylinder(pose[a], pose[b], radius), (track.node_names[a], track.node_names[b])))
     for k in np.flatnonzero(track.sphere):
         name = track.node_names[k]
-        out.append((track.color, sphere(pose[k], float(track.radius[k])), None, (name, name)))
+        out.append((track.color, sphere(pose[k], float(track.radius[k])), (name, name)))
     return out
 
 
@@ -201,7 +200,7 @@ def _rigid(track: BodyTrack) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def write_glb(tracks: list[BodyTrack], skeletons: dict[str, Skeleton], path: str | Path, fps: int) -> Path:
     """Write the recorded ``tracks`` as a .glb at ``path``; bodies named in ``skeletons`` are skinned."""
     out = _Builder()
-    frames = len(tracks[0].frames) if tracks else 0
+    frames = len(tracks[0].frames)  # every track has the first frame at least
     times: list[int] = []  # the key times' accessor, made with the first channel
     channels, samplers = [], []
 
@@ -228,13 +227,13 @@ def write_glb(tracks: list[BodyTrack], skeletons: dict[str, Skeleton], path: str
         skeleton = skeletons.get(track.name)
         if skeleton is not None:
             _add_figure(out, track, skeleton, animate)
-        elif track.is_static() or frames == 0:
-            parts = [(rgba, geo, None) for rgba, geo, _, _ in _shapes(track, track.frames[0])]
+        elif track.is_static():
+            parts = [(rgba, geo, None) for rgba, geo, _ in _shapes(track, track.frames[0])]
             if parts:
                 out.node(gl.Node(name=track.name, mesh=out.mesh(track.name, parts)), root=True)
         else:
             c0, rot, centre = _rigid(track)
-            parts = [(rgba, geo, None) for rgba, geo, _, _ in _shapes(track, track.frames[0] - c0)]
+            parts = [(rgba, geo, None) for rgba, geo, _ in _shapes(track, track.frames[0] - c0)]
             q = continuous(quaternions(rot))
             node = out.node(
                 gl.Node(
@@ -287,7 +286,7 @@ def _add_figure(out: _Builder, track: BodyTrack, skeleton: Skeleton, animate) ->
     )
     out.doc.skins.append(skin)
     parts = []
-    for rgba, geometry, _, ends in _shapes(track, track.rest):
+    for rgba, geometry, ends in _shapes(track, track.rest):
         joint = LINK_JOINTS.get(ends, LINK_JOINTS.get(ends[::-1]))
         parts.append((rgba, geometry, joint_of[joint] if joint else node_joint.get(ends[0], 0)))
     head = [
