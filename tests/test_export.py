@@ -345,3 +345,20 @@ def test_mesh_triangles_face_outwards_and_none_is_degenerate(shape):
     face = np.cross(b - a, c - a)  # glTF: counter-clockwise seen from the front
     assert (np.linalg.norm(face, axis=1) > 1e-9).all()
     assert ((face * normals[tris].sum(1)).sum(1) > 0).all()
+
+
+def test_a_recorder_in_a_loop_of_ones_own_keeps_every_step_at_60_fps_and_refuses_other_rates(scenes):
+    from twig_ecs.motion import MotionError
+
+    scene = Scene.load("schoolyard")
+    scenes.append(scene)
+    with pytest.raises(MotionError, match="30, 60"):
+        MotionRecorder(scene, fps=24)
+    recorder = MotionRecorder(scene, fps=60)
+    for _ in range(6):
+        scene.step()
+        recorder.capture()
+    ball = recorder.tracks["ball"]
+    assert recorder.frame_count == 7 and ball.positions.shape == (7, 1, 3)
+    assert np.allclose(ball.positions[-1], scene.entity("ball").node_positions)
+    assert recorder.figures() == list(FIGURES)

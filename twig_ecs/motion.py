@@ -95,10 +95,12 @@ class MotionRecorder:
         rows = slice(body.node_start, body.node_start + n)
         try:
             template = self.scene.library.template(body.template)
-            scale = body.height / template.reference_height
-            rest = np.array([spec.at for spec in template.nodes], dtype=np.float64) * scale
-            assert tuple(s.name for s in template.nodes) == body.node_names
-        except (TwigError, KeyError, AssertionError):  # a template this library lacks: as it stands now
+        except (TwigError, KeyError):
+            template = None
+        if template is not None and template.node_names == body.node_names:
+            rest = np.array([spec.at for spec in template.nodes], dtype=np.float64)
+            rest *= body.height / template.reference_height
+        else:  # a template this library lacks (a restored snapshot's): the body as it stands now
             rest = state.nodes.pos[rows] - state.nodes.pos[rows].mean(axis=0)
         links = []
         lk = state.links
