@@ -293,7 +293,10 @@ def test_export_to_an_unknown_extension_says_which_to_use(capsys, tmp_path):
     assert not (tmp_path / "out.fbx").exists()
 
 
-def test_export_of_an_unknown_character_names_the_ones_there_are(capsys, tmp_path):
+def test_export_of_an_unknown_character_names_the_ones_there_are_before_the_run(
+    capsys, tmp_path, monkeypatch
+):
+    monkeypatch.setattr(MotionRecorder, "run", lambda *args, **kwargs: pytest.fail("it ran before checking"))
     out = tmp_path / "out.bvh"
     assert main(["export", "schoolyard", "-o", str(out), "--seconds", "0.1", "--character", "granny"]) == 2
     err = capsys.readouterr().err

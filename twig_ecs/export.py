@@ -67,21 +67,30 @@ def write(recorder: MotionRecorder, path: str | Path, character: str | None = No
         raise ExportError(f"cannot write '{exc.filename or path}': {exc.strerror or exc}") from None
 
 
-def _write(recorder: MotionRecorder, path: str | Path, character: str | None) -> list[Path]:
+def chosen_figures(recorder: MotionRecorder, path: str | Path, character: str | None = None) -> list[str]:
+    """The figures an export to ``path`` writes, or ExportError when it can write nothing asked of it.
+
+    Known as soon as the recorder is made, so :func:`export_motion` asks before it runs.
+    """
+    fmt = check_output(path)
     if not recorder.tracks:
         raise ExportError(f"'{recorder.scene.name}' has no bodies: there is no motion to export")
-    fmt = check_output(path)
     figures = recorder.figures()
     if character is not None:
         if character not in figures:
             known = ", ".join(figures) or "none in this scene"
             raise ExportError(f"'{character}' is not a character or ragdoll of this scene (those: {known})")
         figures = [character]
-    if fmt == ".bvh":
+    if fmt == ".bvh" and not figures:
+        raise ExportError("this scene has no character or ragdoll to write as BVH; export a .glb instead")
+    return figures
+
+
+def _write(recorder: MotionRecorder, path: str | Path, character: str | None) -> list[Path]:
+    figures = chosen_figures(recorder, path, character)
+    if check_output(path) == ".bvh":
         from twig_ecs.bvhwriter import write_bvh
 
-        if not figures:
-            raise ExportError("this scene has no character or ragdoll to write as BVH; export a .glb instead")
         fitted = skeletons(recorder, figures)
         return [
             write_bvh(fitted[name], out, recorder.fps)
@@ -136,6 +145,7 @@ def export_motion(
         scene.step(0)  # compile kernels and install systems before the clock starts
         ready = time.perf_counter()
         recorder = MotionRecorder(scene, fps=fps)
+        chosen_figures(recorder, out, character)  # a wrong --character: say so before the run
         recorder.run(seconds, progress=progress)
         recorded = time.perf_counter()
         files = write(recorder, out, character)
