@@ -325,7 +325,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=cmd_bench)
 
-    for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli"):
+    for module in ("twig_ecs.graphics.cli", "twig_ecs.server.cli", "twig_ecs.export"):
         try:
             register_commands = importlib.import_module(module).register_commands
         except ImportError:  # a part not built in this checkout
