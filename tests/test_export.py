@@ -365,3 +365,15 @@ def test_a_recorder_in_a_loop_of_ones_own_keeps_every_step_at_60_fps_and_refuses
     assert recorder.frame_count == 7 and ball.positions.shape == (7, 1, 3)
     assert np.allclose(ball.positions[-1], scene.entity("ball").node_positions)
     assert recorder.figures() == list(FIGURES)
+
+
+def test_export_replays_a_recorded_session_for_its_whole_length(tmp_path, capsys):
+    head = {"twig_replay": 1, "scene": "schoolyard", "seed": 0, "content": [], "autonomous": True}
+    session = tmp_path / "session.twigreplay"
+    session.write_text(json.dumps(head) + "\n" + json.dumps({"end": 60, "state_hash": "x"}) + "\n")
+    out = tmp_path / "replayed.bvh"
+    assert main(["export", str(session), "-o", str(out), "--character", "small_child"]) == 0
+    said = capsys.readouterr().out
+    assert "schoolyard: 31 frames at 30 fps" in said  # 1 s: the start and 30 more, not --seconds' 10
+    text = out.read_text()
+    assert "Frames: 31" in text and "ROOT Hips" in text

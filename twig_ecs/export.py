@@ -9,6 +9,7 @@ the whole scene (:mod:`twig_ecs.gltfwriter`) or BVH files of its figures
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -115,6 +116,46 @@ def is_snapshot(source: str | Path) -> bool:
         return f.read(len(MAGIC)) == MAGIC
 
 
+def is_replay(source: str | Path) -> bool:
+    """Is ``source`` a recorded session (``twig serve --record``), told by its first bytes?"""
+    candidate = Path(source)
+    if not candidate.is_file():
+        return False
+    with candidate.open("rb") as f:
+        return f.read(16).startswith(b'{"twig_replay"')
+
+
+def export_replay(path: str | Path, out: str | Path, fps: int = 30, character: str | None = None,
+                  progress: bool = False) -> dict:  # fmt: skip
+    """Replay a recorded session (as ``twig run --replay``) and write its motion to ``out``:
+    the bodies there at its start, for its whole length."""
+    from twig_ecs.progress import Progress
+    from twig_ecs.server.replay import replay
+
+    check_output(out)
+    started = time.perf_counter()
+    box: dict = {}
+
+    def watch(scene):
+        box["recorder"] = recorder = MotionRecorder(scene, fps=fps)
+        chosen_figures(recorder, out, character)  # a wrong --character: say so before the run
+        box["ready"] = time.perf_counter()
+        return recorder.capture
+
+    shown = Progress(sys.stderr, f"{Path(path).name}: replaying") if progress else None
+    try:
+        result = replay(path, progress=shown, watch=watch)
+    finally:
+        if shown is not None:
+            shown.done()
+    recorder = box["recorder"]
+    recorded = time.perf_counter()
+    files = write(recorder, out, character)
+    return {"scene": result["scene"], "frames": recorder.frame_count, "fps": fps,
+            "figures": recorder.figures(), "files": [str(f) for f in files], "load_s": box["ready"] - started,
+            "record_s": recorded - box["ready"], "write_s": time.perf_counter() - recorded}  # fmt: skip
+
+
 def _open(source: str, seed: int, content, parameters: dict):
     """A scene from a scene file or name, or from a snapshot file."""
     from twig_ecs.scene import Scene
@@ -165,24 +206,27 @@ def export_motion(
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """``twig export``: run a scene or snapshot and write its motion as .glb or .bvh."""
+    """``twig export``: run a scene, snapshot or replay and write its motion as .glb or .bvh."""
     from twig_ecs import kernels
 
     check_output(args.output)  # before a first run's kernels compile, which takes minutes
     if kernels.needs_build():  # a first run: compile them up front, saying so (as `twig run` does)
         source = "schoolyard" if is_snapshot(args.scene) else args.scene  # a snapshot: the usual kernels
         kernels.prepare(source, seed=args.seed, content=args.content, parameters=args.parameters)
-    report = export_motion(
-        args.scene,
-        args.output,
-        args.seconds,
-        seed=args.seed,
-        fps=args.fps,
-        character=args.character,
-        content=args.content,
-        parameters=args.parameters,
-        progress=True,
-    )
+    if is_replay(args.scene):  # its own length, scene and seed
+        report = export_replay(args.scene, args.output, fps=args.fps, character=args.character, progress=True)
+    else:
+        report = export_motion(
+            args.scene,
+            args.output,
+            args.seconds,
+            seed=args.seed,
+            fps=args.fps,
+            character=args.character,
+            content=args.content,
+            parameters=args.parameters,
+            progress=True,
+        )
     print(
         f"{report['scene']}: {report['frames']} frames at {report['fps']} fps "
         f"(recorded in {report['record_s']:.1f} s, written in {report['write_s']:.1f} s) -> "
@@ -194,7 +238,7 @@ def cmd_export(args: argparse.Namespace) -> int:
 def register_commands(sub, add_scene_args) -> None:
     """Add ``twig export`` to the ``twig`` parser's subcommands."""
     p = sub.add_parser(
-        "export", help="run a scene or snapshot and write its motion as .glb or .bvh (docs/export.md)"
+        "export", help="run a scene, snapshot or replay; write its motion as .glb or .bvh (docs/export.md)"
     )
     add_scene_args(p)
     p.add_argument(

@@ -369,13 +369,16 @@ def _yaml_files(folder: str) -> set[str]:
 
 
 def replay(path: str | Path, log=None, progress: Callable[[int, int], None] | None = None,
-           max_frames: int = MAX_FRAMES) -> dict[str, Any]:  # fmt: skip
+           max_frames: int = MAX_FRAMES, watch: Callable[[Any], Callable[[], None]] | None = None
+           ) -> dict[str, Any]:  # fmt: skip
     """Replay a recorded session headless; returns frames, commands, the state hashes and ``match``.
 
     Each command is applied exactly as the server applied it (the same method function,
     between the same two steps); an error that differs from the recorded one is counted
     in ``diverged``. ``progress(frame, last_frame)`` is called every :data:`PROGRESS_FRAMES`
     frames stepped. A replay naming a frame past ``max_frames`` is refused before it starts.
+    ``watch(scene)`` is called before the first step; what it returns is called after every
+    step (a motion recorder's capture: ``twig export`` of a replay).
     """
     header, commands, end = read_replay(path, max_frames)
     with tempfile.TemporaryDirectory(prefix="twig-replay-") as tmp:
@@ -385,9 +388,16 @@ def replay(path: str | Path, log=None, progress: Callable[[int, int], None] | No
     diverged = 0
     final = end["end"] if end else (commands[-1]["frame"] if commands else 0)
 
+    after_step = watch(scene) if watch is not None else None
+
     def step_to(frame: int) -> None:
         while scene.frame < frame:  # in chunks, to report progress (stepping in chunks changes nothing)
-            scene.step(min(PROGRESS_FRAMES, frame - scene.frame))
+            if after_step is None:
+                scene.step(min(PROGRESS_FRAMES, frame - scene.frame))
+            else:
+                for _ in range(min(PROGRESS_FRAMES, frame - scene.frame)):
+                    scene.step()
+                    after_step()
             if progress is not None:
                 progress(scene.frame, final)
 
