@@ -15,7 +15,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import numpy as np
+
 from twig_ecs.components import Character
+from twig_ecs.crowd import Crowd
 from twig_ecs.errors import TwigError
 from twig_ecs.goals import GoalSchema
 from twig_ecs.mind import (  # noqa: F401 - a mind's parts, here too for behaviours and plug-ins
@@ -69,6 +72,8 @@ class Behavior(System):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        if "act_crowd" in cls.__dict__:  # it acts over arrays: for all it won, in one call
+            cls.batch = True
         old = [key for key in ("params", "required", "kinds") if key in cls.__dict__]
         if old:  # the attributes a goal's parameters were declared with before schemas
             raise TwigError(f"behaviour class {cls.__name__}: {', '.join(old)}: a goal's parameters are "
@@ -111,6 +116,9 @@ class Behavior(System):
                 if goals and goals[0].behavior == name:
                     mind.activations[name] = GOAL_ACTIVATION
             return
+        if type(self).propose_crowd is not Behavior.propose_crowd:
+            self._propose_over_arrays(ctx)
+            return
         for entity, mind in self.candidates():
             if not (self.goal_driven or self.reflex or mind.autonomous):
                 continue  # a scripted character does only what it is told
@@ -123,6 +131,31 @@ class Behavior(System):
                 value = self.activation(scene.character_handle(entity), mind, None)
             if value > 0.0:
                 mind.activations[self.name] = value
+
+    def _propose_over_arrays(self, ctx: StepContext) -> None:
+        """:meth:`run` for a behaviour that defines :meth:`propose_crowd`: one call for all."""
+        name = self.name
+        picked = []
+        for entity, mind in self.candidates():
+            goal = mind.goal
+            if self.goal_driven and (goal is None or goal.behavior != name):
+                continue
+            if not (self.goal_driven or self.reflex or mind.autonomous):
+                continue  # a scripted character does only what it is told
+            picked.append((entity, mind, goal if self.goal_driven else None))
+        if not picked:
+            return
+        world = self.world
+        rows = [world.component_for_entity(e, Character).index for e, _, _ in picked]
+        crowd = Crowd(self.scene, rows, [e for e, _, _ in picked], ctx.dt, [g for _, _, g in picked],
+                      self.component)  # fmt: skip
+        values = np.asarray(self.propose_crowd(crowd), dtype=np.float64).reshape(-1)
+        if len(values) != len(picked):
+            raise TwigError(f"behaviour '{name}': propose_crowd gave {len(values)} values for {len(picked)} "
+                            "characters")  # fmt: skip
+        for (_, mind, _), value in zip(picked, values.tolist(), strict=True):
+            if value > 0.0:
+                mind.activations[name] = value
 
     def activation(self, character: CharacterHandle, mind: Mind, goal: Goal | None) -> float:
         """How much this behaviour wants to run for this character now (0: not at all)."""
@@ -139,12 +172,28 @@ class Behavior(System):
 
         ``rows`` are their rows in the store's character table, ``entities`` their
         entities; a goal-driven behaviour also gets ``goals``, each one's current goal (None
-        where it has none of this behaviour's). The default calls :meth:`act` for each.
+        where it has none of this behaviour's). The default calls :meth:`act_crowd` with
+        them as a :class:`~twig_ecs.crowd.Crowd` where a subclass defines it, else :meth:`act`
+        for each.
         """
+        if type(self).act_crowd is not Behavior.act_crowd:
+            self.act_crowd(Crowd(self.scene, rows, entities, dt, goals, self.component))
+            return
         for entity in entities:
             mind = self.world.component_for_entity(entity, Mind)
             goal = mind.goal if mind.goal is not None and mind.goal.behavior == self.name else None
             self.act(self.scene.character_handle(entity), mind, goal, dt)
+
+    def act_crowd(self, crowd: Crowd) -> None:
+        """The batch form of :meth:`act`: write the motor vectors of every character this
+        behaviour won this step at once, over arrays (``crowd.walk(velocities)``...). A
+        subclass that defines it acts only this way (docs/authoring-behaviours.md)."""
+
+    def propose_crowd(self, crowd: Crowd) -> np.ndarray:
+        """The batch form of :meth:`activation`: how much this behaviour wants to run for each
+        of the characters it may propose for (an array, 0: not at all). A subclass that
+        defines it is asked this way, once a step, instead of once per character."""
+        raise NotImplementedError
 
     def stop(self, character: CharacterHandle, goal: Goal | None) -> None:
         """Called when this behaviour stops winning (tidy up: release grabs, unlock)."""

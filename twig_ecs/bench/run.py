@@ -7,11 +7,12 @@ import sys
 import time
 from collections.abc import Callable
 
-CASES = ("schoolyard", "crowd", "approach", "hug", "brawl", "plugin", "ragdolls")
+CASES = ("schoolyard", "crowd", "approach", "hug", "brawl", "plugin", "plugin_batch", "ragdolls")
 #: The cases of N characters, with the name of each one's scene maker in bench.cases
 #: (names, not functions: the cases import the whole scene, and `twig`'s parser reads this module).
 SIZED = {"crowd": "crowd", "approach": "approach_crowd", "hug": "hugging_pairs",
-         "brawl": "brawl", "plugin": "plugin_strollers", "ragdolls": "ragdoll_pile"}  # fmt: skip
+         "brawl": "brawl", "plugin": "plugin_strollers", "plugin_batch": "plugin_batch_strollers",
+         "ragdolls": "ragdoll_pile"}  # fmt: skip
 SIZES = (10, 100, 1000)
 
 
