@@ -38,7 +38,8 @@ TURNED = math.cos(math.radians(20.0))  # facing this near the way it will sit: l
 TURN_TIME = 3.0  # s to pivot before it sits anyway
 LOWER_TIME = 0.9  # s from standing to seated (BELIEVABILITY: 0.5-1 s)
 LOWER_LEAN = 0.14  # m the shoulders lead the pelvis at the middle of the lowering
-SEATED = 0.05  # m: the pelvis this near its seated height (above or below) counts as seated
+SEATED = 0.03  # m: the pelvis this near its seated height (above or below) counts as seated ...
+RESTING = 0.15  # m/s: ... once it moves no faster than this
 SETTLE_TIME = 2.0  # s after the lowering for the pelvis to come to rest on the seat
 SIT_TIME = 10.0  # s from the start of the goal to sitting, else it fails
 HANDS_ON_THIGHS = 0.6  # of the way from hip to knee where the hands rest while lowering
@@ -244,7 +245,9 @@ class SitDown(Behavior):
             character.reach(tuple(thigh + np.array([0.0, 0.08 * character.scale, 0.0])), hand=hand)
         if t < 1.0:
             return
-        resting = -SEATED < character.position[1] - m["height"] < SEATED
+        resting = (
+            abs(character.position[1] - m["height"]) < SEATED and np.linalg.norm(character.velocity) < RESTING
+        )
         if resting and character.posture == "sit":
             character.lean(None)
             character.pose("hang")
