@@ -10,6 +10,8 @@ commanded) keeps a carried thing up in front of the body whenever its hand is no
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -21,7 +23,8 @@ from twig_ecs.kernelmath import HANG
 from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED
-from twig_ecs.systems.behaviours.approach import steer_to, target_point
+from twig_ecs.systems.behaviours.approach import steer_to
+from twig_ecs.systems.behaviours.posture_goals import pivot
 
 FETCH_TIME = 4.0  # s to get a hand on it once there
 
@@ -98,41 +101,191 @@ class Carry(Behavior):
         character.look_at(None)
 
 
+#: Pairs of nodes a body is dragged by, in the order they are tried: the wrists, the ankles.
+DRAG_HOLDS = (("l_hand", "r_hand"), ("l_foot", "r_foot"))
+#: lengths at 1.75 m tall, scaled by the dragger's size
+DRAG_STAND = 0.5  # m from the held wrists (or ankles) to where the dragger stands to take them
+DRAG_STRIDE = 0.35  # m: a backward step's length, unloaded
+DRAG_STEP_TIME = 0.32  # s a backward step is in the air
+DRAG_PAUSE = 0.25  # s both feet down between steps (braced)
+DRAG_LEAN = 0.1  # m the shoulders are held behind the pelvis: leaning back against the load
+DRAG_CROUCH = 0.06  # of standing height: knees a little bent
+DRAG_HANDS = (0.42, 0.5, 0.14)  # m ahead of the pelvis, height over the ground, apart: the grip
+DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
+
+
+def _flat_unit(v: np.ndarray) -> np.ndarray:
+    """``v`` on the ground plane, of length 1 (zero if it has none)."""
+    v = np.asarray(v, dtype=np.float64) * np.array([1.0, 0.0, 1.0])
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-9 else np.zeros(3)
+
+
+def drag_holds(character, target: str) -> tuple[str, str] | None:
+    """The pair of nodes of ``target`` to drag it by - its wrists or its ankles, whichever
+    are nearer - or None for a body that has neither (dragged by one hand instead)."""
+    other = character.scene.entity(target)
+    pairs = [p for p in DRAG_HOLDS if all(n in other.node_names for n in p)]
+    if not pairs:
+        return None
+    here = character.position
+    return min(pairs, key=lambda p: float(np.linalg.norm((other.node(p[0]) + other.node(p[1])) / 2 - here)))
+
+
+def step_back(character, goal: Goal, facing: np.ndarray, stride: float) -> None:
+    """Walk backwards: once the last step is down and braced, the forward foot steps ``stride``
+    behind the other, under its own hip's line; the pelvis follows over the feet (posture's
+    balance). The gait's own steps are held off meanwhile (its steps go where the walk goes,
+    always facing it), as a kick holds them off: by the feet's step timers."""
+    from twig_ecs.systems.behaviours.kick import FEET, launch_kick
+
+    scene = character.scene
+    m = goal.memory
+    nodes, ch, row = scene.state.nodes, scene.state.characters, character.character_row
+    ch.swing[row] = np.maximum(ch.swing[row], 2.0 * scene.dt)  # no gait step while dragging
+    feet = [character.node_row(f) for f in FEET]
+    if scene.time < m.get("step_at", 0.0) or not all(nodes.flags[i] & NODE_LOCKED for i in feet):
+        return
+    ahead = [float(nodes.pos[i] @ facing) for i in feet]
+    f = int(ahead[1] > ahead[0])  # the forward foot steps
+    other = nodes.pos[feet[1 - f]]
+    left = np.array([facing[2], 0.0, -facing[0]])  # the body's left, facing ``facing``
+    half = 0.5 * float(np.linalg.norm(character.node("l_hip") - character.node("r_hip")))
+    # sideways: under its own hip, a hip width from the other foot's line through the pelvis
+    centre = float(character.position @ left)
+    lateral = (centre + (1.2 * half if f == 0 else -1.2 * half) - float(other @ left)) * left
+    target = other - stride * facing + lateral
+    target[1] = nodes.radius[feet[f]]
+    flight = DRAG_STEP_TIME * math.sqrt(character.scale)
+    launch_kick(character, FEET[f], target, flight)
+    m["step_at"] = scene.time + flight + DRAG_PAUSE
+
+
 @register
 class Drag(Behavior):
-    """Grab a character or ragdoll and walk away pulling it."""
+    """Take a body by both wrists (or ankles) and walk backwards pulling it along the ground."""
 
     schema = GoalSchema(
         "drag",
-        "Grab a character, ragdoll or thing and walk `distance` m straight away from it, pulling it.",
+        "Take a character, ragdoll or thing by both wrists or ankles (a thing: in one hand) and walk "
+        "backwards `distance` m pulling it.",
         (
             Param("target", "name", doc="what to drag"),
             metres("distance", 5.0, "how far to walk away pulling it"),
-            Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds it"),
-            speed("speed", 1.0, "the walking pace while pulling"),
+            Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds a thing"),
+            speed("speed", 1.0, "the most the pace may be while pulling (a load slows it)"),
         ),
     )
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Fetch, then walk away from where it lay."""
+        """Get to the body's wrists or ankles, take them, then step backwards pulling."""
         p = goal.params
         m = goal.memory
-        if not fetch(character, goal, p["target"], p["hand"]):
+        target = p["target"]
+        holds = drag_holds(character, target)
+        if holds is None:  # a thing: one hand, as a carry
+            if not fetch(character, goal, target, p["hand"]):
+                return
+        elif not self._take(character, goal, target, holds):
             return
         if "start" not in m:
             m["start"] = character.position
-            away = (character.position - target_point(character, p["target"])) * np.array([1.0, 0.0, 1.0])
-            m["away"] = away / max(float(np.linalg.norm(away)), 1e-9)
-        character.look_at(None)
-        character.walk(m["away"] * p["speed"])
+            other = character.scene.entity(target)
+            m["facing"] = _flat_unit(other.position - character.position)
+            if not m["facing"].any():
+                m["facing"] = character.facing
+            load = other.mass
+            mine = character.mass
+            m["stride"] = DRAG_STRIDE * character.scale * mine / (mine + 0.5 * load)
+            m["pace"] = min(p["speed"], 0.9 * math.sqrt(character.scale))
+            character.stoop(None)
+            character.look_at(target)
+        facing = m["facing"]
+        s = character.scale
+        ch, row = character.scene.state.characters, character.character_row
+        ch.crouch[row] = DRAG_CROUCH * character.stand_height
+        character.lean(tuple(-facing * DRAG_LEAN * s))
+        self._grip(character, facing, holds)
+        pivot(character, facing)
+        period = DRAG_STEP_TIME * math.sqrt(s) + DRAG_PAUSE
+        step_back(character, goal, facing, min(m["stride"], m["pace"] * period))
         if ground_distance(character.position, m["start"]) >= p["distance"]:
             self.finish(character, goal)
+
+    def _take(self, character, goal: Goal, target: str, holds: tuple[str, str]) -> bool:
+        """Walk to stand beyond the held end of the body, facing it, stoop and take hold with
+        both hands; True once both hold."""
+        m = goal.memory
+        other = character.scene.entity(target)
+        held = character.holding
+        if held.get("left") == target and held.get("right") == target:
+            return True
+        for hand, thing in list(held.items()):
+            if thing != target:
+                character.release(hand)
+        s = character.scale
+        ends = (other.node(holds[0]) + other.node(holds[1])) / 2
+        if "spot" not in m:
+            out = _flat_unit(ends - other.position)
+            if not out.any():
+                out = _flat_unit(character.position - ends)
+            m["spot"] = ends + out * DRAG_STAND * s
+            m["spot"][1] = 0.0
+        if not m.get("near"):
+            gap = ground_distance(character.position, m["spot"])
+            if gap > 0.15 * s:
+                if gap > 1.0 * s:
+                    steer_to(character, goal, m["spot"], 0.0, exclude=(target,))
+                else:
+                    character.walk(_flat_unit(m["spot"] - character.position) * max(0.3, min(1.0, 1.2 * gap)))
+                return False
+            character.stop()
+            m["near"] = character.scene.time
+        facing = _flat_unit(ends - character.position)
+        if not pivot(character, facing) and character.scene.time - m["near"] < 1.5:
+            return False
+        character.look_at(target)
+        character.stoop(tuple(ends))
+        # each hand to the wrist (or ankle) on its own side
+        left = np.array([facing[2], 0.0, -facing[0]])
+        a, b = other.node(holds[0]), other.node(holds[1])
+        pairs = (("left", holds[0]), ("right", holds[1])) if (a - b) @ left > 0 else (
+            ("left", holds[1]), ("right", holds[0]))  # fmt: skip
+        for hand, node in pairs:
+            if held.get(hand) == target:
+                continue
+            character.reach(target, hand=hand, node=node)
+            hand_node = ("l_hand", "r_hand")[hand == "right"]
+            if np.linalg.norm(character.node(hand_node) - other.node(node)) < GRAB_REACH * s:
+                try:
+                    character.grab(target, hand=hand, node=node)
+                except TwigError:
+                    pass
+        held = character.holding
+        if held.get("left") == target and held.get("right") == target:
+            return True
+        if character.scene.time - m["near"] > DRAG_GRAB_TIME:
+            character.scene.end_goal(character, goal, False, f"could not get both hands on '{target}'")
+        return False
+
+    @staticmethod
+    def _grip(character, facing: np.ndarray, holds) -> None:
+        """Hold the hands low and out in front, arms long: the load's held end just off the ground."""
+        ahead, height, apart = (v * character.scale for v in DRAG_HANDS)
+        left = np.array([facing[2], 0.0, -facing[0]])
+        base = character.position * np.array([1.0, 0.0, 1.0]) + facing * ahead + np.array([0.0, height, 0.0])
+        if holds is None:
+            return
+        for hand, sign in (("left", 1.0), ("right", -1.0)):
+            character.reach(tuple(base + sign * 0.5 * apart * left), hand=hand)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Let go and stand."""
         character.release()
         character.stop()
         character.stoop(None)
+        character.lean(None)
+        character.look_at(None)
 
 
 @register

@@ -1,0 +1,69 @@
+"""Dragging a body through the public API: both hands on it, walking backwards, the body
+sliding along the ground behind the hands (BELIEVABILITY "Purposeful actions")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from twig_ecs import Scene
+
+
+def drag_a_limp_child(distance: float = 4.0) -> dict:
+    """A 1.75 m adult drags a limp 1.4 m child (33 kg) ``distance`` m; what each frame of the
+    pull showed (from the moment both hands hold until the goal ends)."""
+    with Scene.load("empty") as scene:
+        adult = scene.spawn("humanoid", name="adult", character=True)
+        child = scene.spawn("humanoid", name="child", character=True, height=1.4, position=(0.3, 0.0, 1.5))
+        child.go_limp()
+        scene.run(2.0)  # lying on the ground
+        rows = slice(child.body.node_start, child.body.node_start + len(child.node_names))
+        nodes = scene.state.nodes
+        start = child.position
+        goal = adult.drag("child", distance=distance)
+        began = scene.time
+        frames = []
+        while not goal.finished and scene.time - began < 30.0:
+            scene.step()
+            holding = adult.holding
+            if not frames and not (holding.get("left") == "child" and holding.get("right") == "child"):
+                continue  # still getting hold of it
+            joints = [j for _, j in scene.grabs() if j.holder == adult.entity and j.held == child.entity]
+            frames.append({
+                "lowest": float((nodes.pos[rows, 1] - nodes.radius[rows]).min()),  # gap to the ground
+                "joints": len(joints),
+                "torso": adult.torso_pitch,
+                "pelvis": adult.position[1] / adult.stand_height,
+                "backwards": float(adult.velocity @ adult.facing),
+            })  # fmt: skip
+        return {
+            "status": goal.status,
+            "reason": goal.reason,
+            "frames": frames,
+            "moved": float(np.hypot(*(child.position - start)[[0, 2]])),
+            "seconds": scene.time - began,
+            "mass": child.mass,
+        }
+
+
+def test_a_limp_body_is_dragged_by_both_wrists_with_its_lower_half_on_the_ground():
+    seen = drag_a_limp_child()
+    assert seen["status"] == "done", seen["reason"]
+    assert 30.0 < seen["mass"] < 36.0
+    frames = seen["frames"]
+    assert len(frames) > 60
+    lowest = np.array([f["lowest"] for f in frames])
+    assert np.mean(lowest <= 0.1) >= 0.8, "the body slides along the ground"
+    assert lowest.max() <= 0.3, "it is never lifted off it"
+    assert all(f["joints"] == 2 for f in frames), "both hands hold, all the way"
+    assert seen["moved"] > 3.5
+
+
+def test_the_dragger_walks_backwards_upright_and_slowed_by_the_load():
+    seen = drag_a_limp_child()
+    frames = seen["frames"][60:]  # from a second after taking hold: up from the stoop
+    assert max(f["torso"] for f in frames) <= 25.0
+    assert min(f["pelvis"] for f in frames) >= 0.75
+    backwards = np.array([f["backwards"] for f in frames])
+    assert np.mean(backwards < 0.0) > 0.8, "it faces the body and steps away from it"
+    pace = -float(np.mean(backwards))
+    assert 0.15 < pace < 0.8, f"{pace:.2f} m/s: slower than a walk, not standing still"
