@@ -24,7 +24,7 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.behaviours.approach import steer_to
-from twig_ecs.systems.behaviours.posture_goals import pivot
+from twig_ecs.systems.behaviours.footwork import flat_unit, pivot, step_back
 
 FETCH_TIME = 4.0  # s to get a hand on it once there
 
@@ -106,19 +106,11 @@ DRAG_HOLDS = (("l_hand", "r_hand"), ("l_foot", "r_foot"))
 #: lengths at 1.75 m tall, scaled by the dragger's size
 DRAG_STAND = 0.5  # m from the held wrists (or ankles) to where the dragger stands to take them
 DRAG_STRIDE = 0.35  # m: a backward step's length, unloaded
-DRAG_STEP_TIME = 0.32  # s a backward step is in the air
-DRAG_PAUSE = 0.25  # s both feet down between steps (braced)
+DRAG_MOST_PACE = 0.5  # m/s (at 1.75 m, by the root of the size): the fastest backward pace
 DRAG_LEAN = 0.1  # m the shoulders are held behind the pelvis: leaning back against the load
 DRAG_CROUCH = 0.06  # of standing height: knees a little bent
 DRAG_HANDS = (0.42, 0.5, 0.14)  # m ahead of the pelvis, height over the ground, apart: the grip
 DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
-
-
-def _flat_unit(v: np.ndarray) -> np.ndarray:
-    """``v`` on the ground plane, of length 1 (zero if it has none)."""
-    v = np.asarray(v, dtype=np.float64) * np.array([1.0, 0.0, 1.0])
-    n = float(np.linalg.norm(v))
-    return v / n if n > 1e-9 else np.zeros(3)
 
 
 def drag_holds(character, target: str) -> tuple[str, str] | None:
@@ -132,35 +124,6 @@ def drag_holds(character, target: str) -> tuple[str, str] | None:
     return min(pairs, key=lambda p: float(np.linalg.norm((other.node(p[0]) + other.node(p[1])) / 2 - here)))
 
 
-def step_back(character, goal: Goal, facing: np.ndarray, stride: float) -> None:
-    """Walk backwards: once the last step is down and braced, the forward foot steps ``stride``
-    behind the other, under its own hip's line; the pelvis follows over the feet (posture's
-    balance). The gait's own steps are held off meanwhile (its steps go where the walk goes,
-    always facing it), as a kick holds them off: by the feet's step timers."""
-    from twig_ecs.systems.behaviours.kick import FEET, launch_kick
-
-    scene = character.scene
-    m = goal.memory
-    nodes, ch, row = scene.state.nodes, scene.state.characters, character.character_row
-    ch.swing[row] = np.maximum(ch.swing[row], 2.0 * scene.dt)  # no gait step while dragging
-    feet = [character.node_row(f) for f in FEET]
-    if scene.time < m.get("step_at", 0.0) or not all(nodes.flags[i] & NODE_LOCKED for i in feet):
-        return
-    ahead = [float(nodes.pos[i] @ facing) for i in feet]
-    f = int(ahead[1] > ahead[0])  # the forward foot steps
-    other = nodes.pos[feet[1 - f]]
-    left = np.array([facing[2], 0.0, -facing[0]])  # the body's left, facing ``facing``
-    half = 0.5 * float(np.linalg.norm(character.node("l_hip") - character.node("r_hip")))
-    # sideways: under its own hip, a hip width from the other foot's line through the pelvis
-    centre = float(character.position @ left)
-    lateral = (centre + (1.2 * half if f == 0 else -1.2 * half) - float(other @ left)) * left
-    target = other - stride * facing + lateral
-    target[1] = nodes.radius[feet[f]]
-    flight = DRAG_STEP_TIME * math.sqrt(character.scale)
-    launch_kick(character, FEET[f], target, flight)
-    m["step_at"] = scene.time + flight + DRAG_PAUSE
-
-
 @register
 class Drag(Behavior):
     """Take a body by both wrists (or ankles) and walk backwards pulling it along the ground."""
@@ -168,12 +131,13 @@ class Drag(Behavior):
     schema = GoalSchema(
         "drag",
         "Take a character, ragdoll or thing by both wrists or ankles (a thing: in one hand) and walk "
-        "backwards `distance` m pulling it.",
+        "backwards `distance` m pulling it (a heavy load, or a pace past what it can step backwards, "
+        "slows it).",
         (
             Param("target", "name", doc="what to drag"),
             metres("distance", 5.0, "how far to walk away pulling it"),
             Param("hand", "choice", "right", choices=("left", "right"), doc="the hand that holds a thing"),
-            speed("speed", 1.0, "the most the pace may be while pulling (a load slows it)"),
+            speed("speed", 1.0, "the walking pace while pulling"),
         ),
     )
 
@@ -191,13 +155,14 @@ class Drag(Behavior):
         if "start" not in m:
             m["start"] = character.position
             other = character.scene.entity(target)
-            m["facing"] = _flat_unit(other.position - character.position)
+            m["facing"] = flat_unit(other.position - character.position)
             if not m["facing"].any():
                 m["facing"] = character.facing
             load = other.mass
             mine = character.mass
-            m["stride"] = DRAG_STRIDE * character.scale * mine / (mine + 0.5 * load)
-            m["pace"] = min(p["speed"], 0.9 * math.sqrt(character.scale))
+            m["stride"] = DRAG_STRIDE * character.scale
+            # the load slows it: the pace it would go, times its share of the mass it moves
+            m["pace"] = min(p["speed"], DRAG_MOST_PACE * math.sqrt(character.scale)) * mine / (mine + load)
             character.stoop(None)
             character.look_at(target)
         facing = m["facing"]
@@ -207,8 +172,7 @@ class Drag(Behavior):
         character.lean(tuple(-facing * DRAG_LEAN * s))
         self._grip(character, facing, holds)
         pivot(character, facing)
-        period = DRAG_STEP_TIME * math.sqrt(s) + DRAG_PAUSE
-        step_back(character, goal, facing, min(m["stride"], m["pace"] * period))
+        step_back(character, m, facing, m["stride"], m["pace"])
         if ground_distance(character.position, m["start"]) >= p["distance"]:
             self.finish(character, goal)
 
@@ -226,9 +190,9 @@ class Drag(Behavior):
         s = character.scale
         ends = (other.node(holds[0]) + other.node(holds[1])) / 2
         if "spot" not in m:
-            out = _flat_unit(ends - other.position)
+            out = flat_unit(ends - other.position)
             if not out.any():
-                out = _flat_unit(character.position - ends)
+                out = flat_unit(character.position - ends)
             m["spot"] = ends + out * DRAG_STAND * s
             m["spot"][1] = 0.0
         if not m.get("near"):
@@ -237,11 +201,11 @@ class Drag(Behavior):
                 if gap > 1.0 * s:
                     steer_to(character, goal, m["spot"], 0.0, exclude=(target,))
                 else:
-                    character.walk(_flat_unit(m["spot"] - character.position) * max(0.3, min(1.0, 1.2 * gap)))
+                    character.walk(flat_unit(m["spot"] - character.position) * max(0.3, min(1.0, 1.2 * gap)))
                 return False
             character.stop()
             m["near"] = character.scene.time
-        facing = _flat_unit(ends - character.position)
+        facing = flat_unit(ends - character.position)
         if not pivot(character, facing) and character.scene.time - m["near"] < 1.5:
             return False
         character.look_at(target)

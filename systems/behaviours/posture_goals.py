@@ -17,6 +17,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GESTURES
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.systems.behaviours.approach import steer_to
+from twig_ecs.systems.behaviours.footwork import pivot
 
 STOOD = 0.05  # fraction of standing height
 
@@ -32,9 +33,6 @@ ARRIVED = 0.12  # m from the standing spot that counts as there
 DOCK = 1.0
 DOCK_PACE = (0.35, 1.0)  # m/s: the slowest and the fastest pace of the last metre (at 1.75 m)
 DOCK_TIME = 3.0  # s for the last metre, else it is stuck
-TURN_RATE = 2.5  # rad/s the hips pivot at (the feet step round after them, as standing steps do)
-TURN_GAIN = 60.0  # 1/s: the pivot's yaw velocity servo
-TURNED = math.cos(math.radians(20.0))  # facing this near the way it will sit: lower
 TURN_TIME = 3.0  # s to pivot before it sits anyway
 LOWER_TIME = 0.9  # s from standing to seated (BELIEVABILITY: 0.5-1 s)
 LOWER_LEAN = 0.14  # m the shoulders lead the pelvis at the middle of the lowering
@@ -99,37 +97,6 @@ def seat_frame(character, seat: str) -> SeatFrame:
         half_length,
         half_depth,
     )
-
-
-def pivot(character, facing: np.ndarray) -> bool:
-    """Turn the hips on the spot towards the ground direction ``facing``; True once there.
-
-    Standing still, the posture controller only damps the pelvis's yaw; this adds the
-    turn (opposite accelerations on the torso about the pelvis, as posture's own yaw
-    control does), at ``TURN_RATE``, and the gait's standing steps bring the feet round
-    under the hips. The face and shoulders look the way it turns first.
-    """
-    f = character.facing
-    cos = float(f @ facing)
-    if cos > TURNED:
-        return True
-    sin = float(f[2] * facing[0] - f[0] * facing[2])  # + : turn left (towards +x from +z)
-    error = math.atan2(sin, cos)
-    nodes = character.scene.state.nodes
-    rows = [character.node_row(n) for n in ("pelvis", "spine", "neck", "l_hip", "r_hip")]
-    p = nodes.pos[rows[0]]
-    dt = character.scene.dt
-    left, right = character.node_row("l_hip"), character.node_row("r_hip")
-    width = float(np.hypot(*(nodes.pos[left] - nodes.pos[right])[[0, 2]])) or 1.0
-    spin = ((nodes.pos[right] - nodes.prev[right]) - (nodes.pos[left] - nodes.prev[left])) / dt
-    omega = float(spin[0] * f[0] + spin[2] * f[2]) / width  # yaw rate, + turning left
-    want = max(-TURN_RATE, min(TURN_RATE, TURN_GAIN * error / 10.0))
-    # posture damps yaw at YAW_DAMP = 60/s: add that back, and servo the rate
-    alpha = 60.0 * want + TURN_GAIN * (want - omega)
-    for i in rows:
-        nodes.acc[i, 0] += alpha * (nodes.pos[i, 2] - p[2])
-        nodes.acc[i, 2] -= alpha * (nodes.pos[i, 0] - p[0])
-    return False
 
 
 def _smooth(x: float) -> float:
