@@ -111,15 +111,23 @@ DRAG_LEAN = 0.1  # m the shoulders are held behind the pelvis: leaning back agai
 DRAG_CROUCH = 0.06  # of standing height: knees a little bent
 DRAG_HANDS = (0.42, 0.5, 0.14)  # m ahead of the pelvis, height over the ground, apart: the grip
 DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
+UPRIGHT = 0.5  # of its standing height: a character with its pelvis higher is on its feet
 
 
-def drag_holds(character, target: str) -> tuple[str, str] | None:
+def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str, str] | None:
     """The pair of nodes of ``target`` to drag it by - its wrists or its ankles, whichever
-    are nearer - or None for a body that has neither (dragged by one hand instead)."""
+    are nearer and not ``taken`` by another dragger (two take an end each) - or None for a
+    body that has neither (dragged by one hand instead)."""
     other = character.scene.entity(target)
     pairs = [p for p in DRAG_HOLDS if all(n in other.node_names for n in p)]
     if not pairs:
         return None
+    standing = hasattr(other, "posture") and other.posture != "limp"
+    if standing and other.position[1] > UPRIGHT * other.stand_height:
+        # someone on their feet is pulled along by the hands: a foot it steps with flies a
+        # set arc (kinematic), and held, it would fling whoever holds it
+        pairs = pairs[:1]
+    pairs = [p for p in pairs if p not in taken] or pairs
     here = character.position
     return min(pairs, key=lambda p: float(np.linalg.norm((other.node(p[0]) + other.node(p[1])) / 2 - here)))
 
@@ -146,7 +154,18 @@ class Drag(Behavior):
         p = goal.params
         m = goal.memory
         target = p["target"]
-        holds = drag_holds(character, target)
+        if "holds" not in m:  # chosen once: the ends do not swap as it walks round the body
+            taken = set()
+            for entity, mind in self.candidates():
+                there = mind.goals[0] if mind.goals else None
+                if entity == character.entity or there is None or there.behavior != self.name:
+                    continue
+                if there.params["target"] == target and there.memory.get("holds"):
+                    taken.add(tuple(there.memory["holds"]))
+                    if there.memory.get("spot") is not None:  # stand off on the far side from it
+                        m["avoid"] = there.memory["spot"]
+            m["holds"] = drag_holds(character, target, taken)
+        holds = tuple(m["holds"]) if m["holds"] else None
         if holds is None:  # a thing: one hand, as a carry
             if not fetch(character, goal, target, p["hand"]):
                 return
@@ -190,7 +209,7 @@ class Drag(Behavior):
         s = character.scale
         ends = (other.node(holds[0]) + other.node(holds[1])) / 2
         if "spot" not in m:
-            out = flat_unit(ends - other.position)
+            out = flat_unit(ends - (m["avoid"] if "avoid" in m else other.position))
             if not out.any():
                 out = flat_unit(character.position - ends)
             m["spot"] = ends + out * DRAG_STAND * s
