@@ -41,6 +41,8 @@ RESTING = 0.15  # m/s: ... once it moves no faster than this
 SETTLE_TIME = 2.0  # s after the lowering for the pelvis to come to rest on the seat
 SIT_TIME = 10.0  # s from the start of the goal to sitting, else it fails
 HANDS_ON_THIGHS = 0.6  # of the way from hip to knee where the hands rest while lowering
+LEAN_OVER_TIME = 0.4  # s: from a seat, the shoulders lean out over the feet before it rises
+LEAN_OVER = 0.18  # m (at 1.75 m) the shoulders lead the pelvis by then
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,6 +99,14 @@ def seat_frame(character, seat: str) -> SeatFrame:
         half_length,
         half_depth,
     )
+
+
+def hands_on_thighs(character) -> None:
+    """Reach each hand to the top of its thigh, ``HANDS_ON_THIGHS`` of the way to the knee."""
+    for hand, side in (("left", "l"), ("right", "r")):
+        hip, knee = character.node(f"{side}_hip"), character.node(f"{side}_knee")
+        thigh = hip + HANDS_ON_THIGHS * (knee - hip)
+        character.reach(tuple(thigh + np.array([0.0, 0.08 * character.scale, 0.0])), hand=hand)
 
 
 def _smooth(x: float) -> float:
@@ -186,6 +196,7 @@ class SitDown(Behavior):
         """Pivot on the spot to turn the back to the seat."""
         m = goal.memory
         character.stop()
+        hands_on_thighs(character)  # held, not flung out by the turn
         if pivot(character, m["front"]) or character.scene.time - m["phase_at"] > TURN_TIME:
             m["phase"], m["phase_at"] = "lower", character.scene.time
             m["from"] = character.position
@@ -206,10 +217,7 @@ class SitDown(Behavior):
         rows.seat[character.character_row] = target
         bell = math.sin(math.pi * min(1.0, t))
         character.lean(tuple(m["front"] * LOWER_LEAN * character.scale * bell))
-        for hand, side in (("left", "l"), ("right", "r")):
-            hip, knee = character.node(f"{side}_hip"), character.node(f"{side}_knee")
-            thigh = hip + HANDS_ON_THIGHS * (knee - hip)
-            character.reach(tuple(thigh + np.array([0.0, 0.08 * character.scale, 0.0])), hand=hand)
+        hands_on_thighs(character)
         if t < 1.0:
             return
         resting = (
@@ -241,19 +249,47 @@ class SitDown(Behavior):
 
 @register
 class StandUp(Behavior):
-    """Stand up (from sitting, or from limp)."""
+    """Stand up (from sitting, or from limp).
+
+    From a seat: the shoulders lean out over the feet first (``LEAN_OVER_TIME``), hands on
+    the thighs, then the posture controller's rise lifts the pelvis with the shoulders held
+    over the feet; the arms hang again once it stands.
+    """
 
     schema = GoalSchema("stand", "Stand up (from sitting, or from limp).", handle_method=False)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Rise; done once standing at full height."""
-        if "started" not in goal.memory:
-            goal.memory["started"] = True
+        """Lean over the feet, rise; done once standing at full height."""
+        m = goal.memory
+        now = character.scene.time
+        if "started" not in m:
+            m["started"] = now
+            m["seated"] = character.posture == "sit"
+            if not m["seated"]:
+                character.stand()
+        if m["seated"] and "rising" not in m:
+            k = _smooth((now - m["started"]) / LEAN_OVER_TIME)
+            character.lean(tuple(character.facing * LEAN_OVER * character.scale * k))
+            hands_on_thighs(character)
+            if k < 1.0 and character.posture == "sit":
+                return
+            m["rising"] = True
+            character.lean(None)
             character.stand()
+        if character.posture == "rise":
+            hands_on_thighs(character)  # pushing off them
+        elif m["seated"] and character.arm_modes["left"] == "reach":
+            character.pose("hang")
         if character.posture == "stand" and abs(character.position[1] - character.stand_height) < (
             STOOD * character.stand_height
         ):
             self.finish(character, goal)
+
+    def stop(self, character, goal: Goal | None) -> None:
+        """Upright, arms hanging, if it was stopped half way."""
+        character.lean(None)
+        if goal is not None and goal.memory.get("seated"):
+            character.pose("hang")
 
 
 @register
