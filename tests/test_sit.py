@@ -119,3 +119,18 @@ def test_children_sit_on_the_bench_too(height):
         assert goal.status == "done", goal.reason
         assert kid.posture == "sit" and kid.torso_pitch < 20.0
         assert abs(kid.position[1] - kid.seat[1]) < 0.05
+
+
+def test_two_sent_to_one_bench_sit_side_by_side():
+    with Scene.load("empty") as scene:
+        scene.spawn("bench", name="bench", position=(0.0, 0.0, 3.0))
+        ann = scene.spawn("humanoid", name="ann", character=True, position=(-0.3, 0.0, 6.0), facing=180)
+        bob = scene.spawn("humanoid", name="bob", character=True, position=(0.4, 0.0, 6.5), facing=180)
+        scene.run(0.3)
+        goals = [ann.do("sit", on="bench"), bob.do("sit", on="bench")]
+        began = scene.time
+        while not all(g.finished for g in goals) and scene.time - began < 12.0:
+            scene.step()
+        assert [g.status for g in goals] == ["done", "done"], [g.reason for g in goals]
+        assert ann.posture == bob.posture == "sit"
+        assert abs(ann.position[0] - bob.position[0]) > 0.5, "a body's width apart"

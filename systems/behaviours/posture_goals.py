@@ -15,6 +15,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GESTURES
+from twig_ecs.components import Character
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.systems.behaviours.approach import steer_to
 from twig_ecs.systems.behaviours.footwork import pivot
@@ -27,10 +28,11 @@ STOOD = 0.05  # fraction of standing height
 STAND_OFF = 0.22
 #: m kept between the body's middle and either end of the seat (half a hip width and more)
 END_MARGIN = 0.3
+SIDE_BY_SIDE = 0.55  # m between the places of two sitting side by side (shoulder to shoulder)
 ARRIVED = 0.12  # m from the standing spot that counts as there
 #: m from the spot within which it walks straight at it, slowing (the approach field's
 #: obstacle push would have it creep along the seat for seconds)
-DOCK = 1.0
+DOCK = 1.8
 DOCK_PACE = (0.35, 1.0)  # m/s: the slowest and the fastest pace of the last metre (at 1.75 m)
 DOCK_TIME = 3.0  # s for the last metre, else it is stuck
 TURN_TIME = 3.0  # s to pivot before it sits anyway
@@ -159,17 +161,10 @@ class SitDown(Behavior):
     def _walk(self, character, goal: Goal, seat: str) -> None:
         """Walk to the standing spot before the seat's front."""
         m = goal.memory
-        frame = seat_frame(character, seat)
         s = character.scale
-        if frame.centre[1] > character.stand_height:  # above the hips: no lowering onto that
-            top = frame.centre[1]
-            self._fail(character, goal, f"'{seat}' is too high to sit on (its top is {top:.2f} m up)")
+        if "spot" not in m and not self._choose_place(character, goal, seat):
             return
-        room = frame.half_length - END_MARGIN * s
-        offset = float((character.position - frame.centre) @ frame.along)
-        offset = max(-room, min(room, offset)) if room > 0.0 else 0.0
-        spot = frame.centre + offset * frame.along + (frame.half_depth + STAND_OFF * s) * frame.front
-        spot[1] = 0.0
+        spot = m["spot"]
         off = (spot - character.position) * np.array([1.0, 0.0, 1.0])
         gap = float(np.linalg.norm(off))
         if gap > DOCK * s and "dock_at" not in m:
@@ -188,9 +183,68 @@ class SitDown(Behavior):
         else:
             character.stop()
             m["phase"], m["phase_at"] = "turn", character.scene.time
-            m["front"], m["spot"] = frame.front, spot
-            m["seat_at"] = frame.centre + offset * frame.along
-            character.look_at(tuple(spot + 3.0 * frame.front + np.array([0.0, 1.5 * s, 0.0])))
+            character.look_at(tuple(spot + 3.0 * m["front"] + np.array([0.0, 1.5 * s, 0.0])))
+
+    def _choose_place(self, character, goal: Goal, seat: str) -> bool:
+        """Pick the place on the seat (once per goal): the side it comes to, as near as it
+        can to where it stands along the seat and a body's width from anyone sitting there
+        or on the way to; False when the goal failed (too high, no room)."""
+        m = goal.memory
+        frame = seat_frame(character, seat)
+        s = character.scale
+        if frame.centre[1] > character.stand_height:  # above the hips: no lowering onto that
+            top = frame.centre[1]
+            self._fail(character, goal, f"'{seat}' is too high to sit on (its top is {top:.2f} m up)")
+            return False
+        room = max(0.0, frame.half_length - END_MARGIN * s)
+        want = float((character.position - frame.centre) @ frame.along)
+        taken = [float((p - frame.centre) @ frame.along) for p in self._places_taken(character, seat)]
+        # where it stands along the seat if that is free, else one of the places a body's
+        # width apart spread evenly along it (a seat for two is sat on at both ends)
+        width = SIDE_BY_SIDE * s
+        count = int(2.0 * room / width) + 1
+        spread = [0.0] if count == 1 else [float(c) for c in np.linspace(-room, room, count)]
+        choices = [max(-room, min(room, want)), *spread]
+        free = [c for c in choices if all(abs(c - t) >= width - 1e-9 for t in taken)]
+        if not free:
+            self._fail(character, goal, f"no room on '{seat}'")
+            return False
+        offset = min(free, key=lambda c: abs(c - want))
+        spot = frame.centre + offset * frame.along + (frame.half_depth + STAND_OFF * s) * frame.front
+        spot[1] = 0.0
+        m["spot"], m["front"], m["seat_at"] = spot, frame.front, frame.centre + offset * frame.along
+        return True
+
+    def _places_taken(self, character, seat: str) -> list[np.ndarray]:
+        """Where others sit on ``seat``, or are going to: pelvises on it, and the places of
+        other sit goals on it."""
+        scene = character.scene
+        body = scene.entity(seat)
+        rows = slice(body.body.node_start, body.body.node_start + len(body.node_names))
+        pos = scene.state.nodes.pos[rows]
+        lo, hi = pos.min(axis=0) - 0.2, pos.max(axis=0) + 0.2
+        places = []
+        for entity, (_, mind) in self.world.get_components(Character, Mind):
+            if entity == character.entity:
+                continue
+            goal = mind.goals[0] if mind.goals else None
+            if (
+                goal is not None
+                and goal.behavior == self.name
+                and goal.params["on"] == seat
+                and "seat_at" in goal.memory
+            ):
+                places.append(goal.memory["seat_at"])
+                continue
+            other = scene.character_handle(entity)
+            p = other.position
+            if (
+                other.posture in ("sit", "rise")
+                and (lo[[0, 2]] <= p[[0, 2]]).all()
+                and (p[[0, 2]] <= hi[[0, 2]]).all()
+            ):
+                places.append(p)
+        return places
 
     def _turn(self, character, goal: Goal) -> None:
         """Pivot on the spot to turn the back to the seat."""
