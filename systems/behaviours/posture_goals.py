@@ -27,8 +27,8 @@ STOOD = 0.05  # fraction of standing height
 #: the edge, so the lowering takes the hips back over the seat, the feet staying planted
 STAND_OFF = 0.22
 #: m kept between the body's middle and either end of the seat (half a hip width and more)
-END_MARGIN = 0.3
-SIDE_BY_SIDE = 0.55  # m between the places of two sitting side by side (shoulder to shoulder)
+END_MARGIN = 0.2
+SIDE_BY_SIDE = 0.55  # m between the places of two 1.75 m tall sitting side by side (by their sizes)
 ARRIVED = 0.12  # m from the standing spot that counts as there
 #: m from the spot within which it walks straight at it, slowing (the approach field's
 #: obstacle push would have it creep along the seat for seconds)
@@ -198,14 +198,20 @@ class SitDown(Behavior):
             return False
         room = max(0.0, frame.half_length - END_MARGIN * s)
         want = float((character.position - frame.centre) @ frame.along)
-        taken = [float((p - frame.centre) @ frame.along) for p in self._places_taken(character, seat)]
+        taken = [
+            (float((p - frame.centre) @ frame.along), size) for p, size in self._places_taken(character, seat)
+        ]
         # where it stands along the seat if that is free, else one of the places a body's
         # width apart spread evenly along it (a seat for two is sat on at both ends)
         width = SIDE_BY_SIDE * s
         count = int(2.0 * room / width) + 1
         spread = [0.0] if count == 1 else [float(c) for c in np.linspace(-room, room, count)]
         choices = [max(-room, min(room, want)), *spread]
-        free = [c for c in choices if all(abs(c - t) >= width - 1e-9 for t in taken)]
+        free = [
+            c
+            for c in choices
+            if all(abs(c - t) >= 0.5 * SIDE_BY_SIDE * (s + size) - 1e-9 for t, size in taken)
+        ]
         if not free:
             self._fail(character, goal, f"no room on '{seat}'")
             return False
@@ -215,9 +221,9 @@ class SitDown(Behavior):
         m["spot"], m["front"], m["seat_at"] = spot, frame.front, frame.centre + offset * frame.along
         return True
 
-    def _places_taken(self, character, seat: str) -> list[np.ndarray]:
-        """Where others sit on ``seat``, or are going to: pelvises on it, and the places of
-        other sit goals on it."""
+    def _places_taken(self, character, seat: str) -> list[tuple[np.ndarray, float]]:
+        """Where others sit on ``seat``, or are going to, and their sizes (``scale``):
+        pelvises on it, and the places of other sit goals on it."""
         scene = character.scene
         body = scene.entity(seat)
         rows = slice(body.body.node_start, body.body.node_start + len(body.node_names))
@@ -227,23 +233,16 @@ class SitDown(Behavior):
         for entity, (_, mind) in self.world.get_components(Character, Mind):
             if entity == character.entity:
                 continue
-            goal = mind.goals[0] if mind.goals else None
-            if (
-                goal is not None
-                and goal.behavior == self.name
-                and goal.params["on"] == seat
-                and "seat_at" in goal.memory
-            ):
-                places.append(goal.memory["seat_at"])
-                continue
             other = scene.character_handle(entity)
+            goal = mind.goals[0] if mind.goals else None
+            going = goal is not None and goal.behavior == self.name and goal.params["on"] == seat
+            if going and "seat_at" in goal.memory:
+                places.append((goal.memory["seat_at"], other.scale))
+                continue
             p = other.position
-            if (
-                other.posture in ("sit", "rise")
-                and (lo[[0, 2]] <= p[[0, 2]]).all()
-                and (p[[0, 2]] <= hi[[0, 2]]).all()
-            ):
-                places.append(p)
+            on_it = (lo[[0, 2]] <= p[[0, 2]]).all() and (p[[0, 2]] <= hi[[0, 2]]).all()
+            if other.posture in ("sit", "rise") and on_it:
+                places.append((p, other.scale))
         return places
 
     def _turn(self, character, goal: Goal) -> None:
