@@ -4,6 +4,7 @@ sliding along the ground behind the hands (BELIEVABILITY "Purposeful actions")."
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from twig_ecs import Scene
 
@@ -67,3 +68,27 @@ def test_the_dragger_walks_backwards_upright_and_slowed_by_the_load():
     assert np.mean(backwards < 0.0) > 0.8, "it faces the body and steps away from it"
     pace = -float(np.mean(backwards))
     assert 0.15 < pace < 0.8, f"{pace:.2f} m/s: slower than a walk, not standing still"
+
+
+@pytest.mark.parametrize("fell_facing", [0, 90, 180, -90])
+def test_however_the_body_fell_both_hands_take_it_and_it_slides(fell_facing):
+    """A limp child fallen any way round (wrists or ankles nearer, or under it in a heap):
+    the dragger gets both hands on it - its wrists or ankles, else the nearest parts - and
+    pulls it 3 m along the ground."""
+    with Scene.load("empty") as scene:
+        adult = scene.spawn("humanoid", name="adult", character=True)
+        child = scene.spawn("humanoid", name="child", character=True, height=1.4, position=(0.3, 0.0, 1.8),
+                            facing=fell_facing)  # fmt: skip
+        child.go_limp()
+        scene.run(2.0)
+        rows = slice(child.body.node_start, child.body.node_start + len(child.node_names))
+        nodes = scene.state.nodes
+        goal = adult.drag("child", distance=3.0)
+        lowest = []
+        while not goal.finished and scene.time < 25.0:
+            scene.step()
+            if "start" in goal.memory:
+                lowest.append(float((nodes.pos[rows, 1] - nodes.radius[rows]).min()))
+                assert len(adult.holding) == 2
+        assert goal.status == "done", goal.reason
+        assert np.mean(np.array(lowest) <= 0.1) >= 0.8

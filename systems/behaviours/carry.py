@@ -111,7 +111,15 @@ DRAG_LEAN = 0.1  # m the shoulders are held behind the pelvis: leaning back agai
 DRAG_CROUCH = 0.06  # of standing height: knees a little bent
 DRAG_HANDS = (0.42, 0.5, 0.14)  # m ahead of the pelvis, height over the ground, apart: the grip
 DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
+DRAG_MAKE_DO = 2.5  # s: a hand that has not got its wrist (or ankle) by then takes the nearest part
 UPRIGHT = 0.5  # of its standing height: a character with its pelvis higher is on its feet
+
+
+def on_feet(body) -> bool:
+    """Is ``body`` a character standing (or walking) under its own control?"""
+    return (
+        hasattr(body, "posture") and body.posture != "limp" and body.position[1] > UPRIGHT * body.stand_height
+    )
 
 
 def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str, str] | None:
@@ -122,8 +130,7 @@ def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str
     pairs = [p for p in DRAG_HOLDS if all(n in other.node_names for n in p)]
     if not pairs:
         return None
-    standing = hasattr(other, "posture") and other.posture != "limp"
-    if standing and other.position[1] > UPRIGHT * other.stand_height:
+    if on_feet(other):
         # someone on their feet is pulled along by the hands: a foot it steps with flies a
         # set arc (kinematic), and held, it would fling whoever holds it
         pairs = pairs[:1]
@@ -234,11 +241,16 @@ class Drag(Behavior):
         a, b = other.node(holds[0]), other.node(holds[1])
         pairs = (("left", holds[0]), ("right", holds[1])) if (a - b) @ left > 0 else (
             ("left", holds[1]), ("right", holds[0]))  # fmt: skip
+        late = character.scene.time - m["near"] > DRAG_MAKE_DO
         for hand, node in pairs:
             if held.get(hand) == target:
                 continue
-            character.reach(target, hand=hand, node=node)
             hand_node = ("l_hand", "r_hand")[hand == "right"]
+            if late:  # that wrist (or ankle) is out of reach, under the body say: the nearest part will do
+                names = [n for n in other.node_names if not (on_feet(other) and n in ("l_foot", "r_foot"))]
+                gaps = [float(np.linalg.norm(other.node(n) - character.node(hand_node))) for n in names]
+                node = names[int(np.argmin(gaps))]
+            character.reach(target, hand=hand, node=node)
             if np.linalg.norm(character.node(hand_node) - other.node(node)) < GRAB_REACH * s:
                 try:
                     character.grab(target, hand=hand, node=node)
