@@ -49,14 +49,15 @@ def fetch(character, goal: Goal, target: str, hand: str) -> bool:
         m["near"] = character.scene.time
     other = character.scene.entity(target)
     hand_node = ("l_hand", "r_hand")[hand == "right"]
-    pos = other.node_positions
-    nearest = other.node_names[int(np.argmin(np.linalg.norm(pos - character.node(hand_node), axis=1)))]
+    nearest = nearest_hold(character, other, hand_node)
     character.reach(target, hand=hand, node=nearest)
     character.stoop(tuple(other.node(nearest)))  # get down to it if it is low
     if np.linalg.norm(character.node(hand_node) - other.node(nearest)) < GRAB_REACH * scale:
         try:
             character.grab(target, hand=hand, node=nearest)
             character.stoop(None)
+            if on_feet(other):  # led by the hand, not hoisted: lifting a knee up before the
+                character.pose("hang", hand=hand)  # belly threw both down and about (melee seed 3)
             return True
         except TwigError:
             pass
@@ -122,6 +123,15 @@ def on_feet(body) -> bool:
     )
 
 
+def nearest_hold(character, other, hand_node: str) -> str:
+    """The node of ``other`` nearest to ``character``'s ``hand_node`` that a hand may take:
+    any, but never a foot of someone on their feet (a stepping foot flies a set arc -
+    kinematic, as heavy as the world - and, held, flings whoever holds it)."""
+    names = [n for n in other.node_names if not (n in ("l_foot", "r_foot") and on_feet(other))]
+    gaps = [float(np.linalg.norm(other.node(n) - character.node(hand_node))) for n in names]
+    return names[int(np.argmin(gaps))]
+
+
 def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str, str] | None:
     """The pair of nodes of ``target`` to drag it by - its wrists or its ankles, whichever
     are nearer and not ``taken`` by another dragger (two take an end each) - or None for a
@@ -173,6 +183,11 @@ class Drag(Behavior):
                         m["avoid"] = there.memory["spot"]
             m["holds"] = drag_holds(character, target, taken)
         holds = tuple(m["holds"]) if m["holds"] else None
+        if holds == DRAG_HOLDS[1] and on_feet(character.scene.entity(target)):
+            # it got up: its feet step now, and held, a stepping foot flings its holder
+            character.release()
+            self.finish(character, goal, False, f"'{target}' got to its feet")
+            return
         if holds is None:  # a thing: one hand, as a carry
             if not fetch(character, goal, target, p["hand"]):
                 return
@@ -247,9 +262,7 @@ class Drag(Behavior):
                 continue
             hand_node = ("l_hand", "r_hand")[hand == "right"]
             if late:  # that wrist (or ankle) is out of reach, under the body say: the nearest part will do
-                names = [n for n in other.node_names if not (on_feet(other) and n in ("l_foot", "r_foot"))]
-                gaps = [float(np.linalg.norm(other.node(n) - character.node(hand_node))) for n in names]
-                node = names[int(np.argmin(gaps))]
+                node = nearest_hold(character, other, hand_node)
             character.reach(target, hand=hand, node=node)
             if np.linalg.norm(character.node(hand_node) - other.node(node)) < GRAB_REACH * s:
                 try:
