@@ -29,9 +29,14 @@ def drag_a_limp_child(distance: float = 4.0) -> dict:
             if not frames and not (holding.get("left") == "child" and holding.get("right") == "child"):
                 continue  # still getting hold of it
             joints = [j for _, j in scene.grabs() if j.holder == adult.entity and j.held == child.entity]
+            hands = [adult.node("l_hand"), adult.node("r_hand")]
+            legs = [child.node_row(n) for n in ("l_knee", "r_knee", "l_foot", "r_foot")]
             frames.append({
                 "lowest": float((nodes.pos[rows, 1] - nodes.radius[rows]).min()),  # gap to the ground
                 "joints": len(joints),
+                "wrists_held": all(min(np.linalg.norm(child.node(w) - h) for h in hands) < 0.1
+                                   for w in ("l_hand", "r_hand")),
+                "legs_down": float((nodes.pos[legs, 1] - nodes.radius[legs]).max()),
                 "torso": adult.torso_pitch,
                 "pelvis": adult.position[1] / adult.stand_height,
                 "backwards": float(adult.velocity @ adult.facing),
@@ -56,7 +61,9 @@ def test_a_limp_body_is_dragged_by_both_wrists_with_its_lower_half_on_the_ground
     assert np.mean(lowest <= 0.1) >= 0.8, "the body slides along the ground"
     assert lowest.max() <= 0.3, "it is never lifted off it"
     assert all(f["joints"] == 2 for f in frames), "both hands hold, all the way"
-    assert seen["moved"] > 3.5
+    assert all(f["wrists_held"] for f in frames[60:]), "by its wrists (a grip closes at 0.6 m/s)"
+    assert np.mean([f["legs_down"] <= 0.1 for f in frames]) >= 0.8, "its legs slide along the ground"
+    assert seen["moved"] > 3.0  # the dragger walked 4 m; the body straightens out behind it first
 
 
 def test_the_dragger_walks_backwards_upright_and_slowed_by_the_load():

@@ -114,6 +114,7 @@ DRAG_HANDS = (0.35, 0.75, 0.14)  # m ahead of the pelvis, height over the ground
 DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
 DRAG_MAKE_DO = 2.5  # s: a hand that has not got its wrist (or ankle) by then takes the nearest part
 UPRIGHT = 0.5  # of its standing height: a character with its pelvis higher is on its feet
+ANKLES_FURTHER = 1.0  # m (at 1.75 m): the ankles are taken only when this much nearer than the wrists
 
 
 def on_feet(body) -> bool:
@@ -133,9 +134,9 @@ def nearest_hold(character, other, hand_node: str) -> str:
 
 
 def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str, str] | None:
-    """The pair of nodes of ``target`` to drag it by - its wrists or its ankles, whichever
-    are nearer and not ``taken`` by another dragger (two take an end each) - or None for a
-    body that has neither (dragged by one hand instead)."""
+    """The pair of nodes of ``target`` to drag it by - its wrists, or its ankles when they are
+    much nearer, and not ``taken`` by another dragger (two take an end each) - or None for
+    a body that has neither (dragged by one hand instead)."""
     other = character.scene.entity(target)
     pairs = [p for p in DRAG_HOLDS if all(n in other.node_names for n in p)]
     if not pairs:
@@ -146,7 +147,14 @@ def drag_holds(character, target: str, taken: set[tuple[str, str]]) -> tuple[str
         pairs = pairs[:1]
     pairs = [p for p in pairs if p not in taken] or pairs
     here = character.position
-    return min(pairs, key=lambda p: float(np.linalg.norm((other.node(p[0]) + other.node(p[1])) / 2 - here)))
+
+    def cost(pair: tuple[str, str]) -> float:
+        """How far the pair is, the ankles counted ANKLES_FURTHER further (the wrists are
+        the usual hold: the legs, the heavier half, then slide on the ground)."""
+        gap = float(np.linalg.norm((other.node(pair[0]) + other.node(pair[1])) / 2 - here))
+        return gap + (ANKLES_FURTHER * character.scale if pair == DRAG_HOLDS[1] else 0.0)
+
+    return min(pairs, key=cost)
 
 
 @register
