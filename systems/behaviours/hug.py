@@ -58,10 +58,12 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.behaviours.approach import steer_to
 from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the partner's answer to a hug)
+    FACED,
     HOLD,
     PHASES,
     STAND_UP,
     STOOP,
+    TURN_PACE,
     WRAP,
     embrace_arms,
     glide_hand,
@@ -80,9 +82,11 @@ WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root 
 # bodies of other sizes walk alike at equal Froude numbers - a 1.05 m child ~1.0 m/s)
 RUN_FROUDE = 1.0  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
 BRAKE = 1.5  # m/s^2: how hard the walk-up slows over its last steps (a person stops within a step)
-SOCIAL = 0.9  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug
+SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug (turning back
+# to face each other brings them in a little: they end 0.8-0.9 m apart)
 PART_PACE = 0.7  # m/s (at 1.75 m tall, by the root of the size) of the steps back
 PART_TIME = 1.5  # s at most of stepping back (a wall behind it: it stops there)
+TURN_BACK = 1.5  # s at most of turning back to face the partner after
 PARTING = 1.05  # activation of stepping back: above goals, play and running home, below pain
 LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
 LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
@@ -535,10 +539,12 @@ def hands_on_back(holder, held) -> int:
 
 @dataclass(slots=True)
 class Parting:
-    """Stepping back after a hug (systems/behaviours/hug.py): from whom, and until when at most."""
+    """Stepping back after a hug (systems/behaviours/hug.py): from whom, until when at most,
+    and whether it has got to a social gap and is turning back to face the partner."""
 
     partner: int  # entity of the one it hugged or was hugged by
-    until: float  # s (scene time): it stops stepping back then, wherever it is
+    until: float  # s (scene time): it stops then, wherever it is
+    turning: bool = False  # far enough: now turning to face the partner again
 
 
 def step_back(scene, a: int, b: int) -> None:
@@ -551,10 +557,13 @@ def step_back(scene, a: int, b: int) -> None:
 
 @register
 class StepBack(Behavior):
-    """After a hug: arms down, a few steps back from the partner to a social gap, looking at it.
+    """After a hug: arms down, a few steps away from the partner to a social gap, then a
+    turn on the spot to face it again.
 
     Runs even for a scripted character, as a reflex does: it is the hug's wind-down (the goal
-    is done when the arms let go), and it lasts ``PART_TIME`` at most.
+    is done when the arms let go), and it lasts ``PART_TIME`` (and ``TURN_BACK``) at most.
+    The gait walks where the pelvis faces, so the steps away turn the body from the
+    partner; it turns back once there.
     """
 
     name = "step_back"
@@ -562,25 +571,30 @@ class StepBack(Behavior):
     reflex = True
 
     def activation(self, character, mind: Mind, goal) -> float:
-        """High until the gap is social (or the time is up)."""
+        """High until it stands at a social gap facing the partner (or the time is up)."""
         parting = self.world.component_for_entity(character.entity, Parting)
         if self.scene.time > parting.until or not self.world.entity_exists(parting.partner):
             return 0.0
         return PARTING
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
-        """Step straight back from the partner until the pelvises are ``SOCIAL`` apart."""
+        """Step away from the partner until the pelvises are ``SOCIAL`` apart, then face it."""
         parting = self.world.component_for_entity(character.entity, Parting)
         other = self.scene.character_handle(parting.partner)
         away = (character.position - other.position) * np.array([1.0, 0.0, 1.0])
         gap = float(np.hypot(away[0], away[2]))
-        if gap >= SOCIAL * max(character.scale, other.scale):
-            parting.until = self.scene.time  # far enough: over
-            character.stop()
-            return
+        away /= max(gap, 1e-9)
         character.pose("hang")
         character.look_at(other.name, node="head")
-        character.walk(away / max(gap, 1e-9) * PART_PACE * math.sqrt(character.scale))
+        if not parting.turning and gap >= SOCIAL * max(character.scale, other.scale):
+            parting.turning, parting.until = True, self.scene.time + TURN_BACK
+        if not parting.turning:
+            character.walk(away * PART_PACE * math.sqrt(character.scale))
+        elif float(character.facing @ -away) < math.cos(FACED):
+            character.walk(-away * TURN_PACE * character.scale)  # slow steps on the spot, turning to it
+        else:
+            parting.until = self.scene.time  # facing it at a social gap: over
+            character.stop()
 
     def stop(self, character, goal) -> None:
         """Stand; the parting is forgotten."""
