@@ -54,6 +54,7 @@ NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "radius": (np.float64, (), 0.0),  # contact radius against the ground and as a sphere
     "damp_air": (np.float64, (), 0.0),  # d of SPEC 2 when not touching a support
     "damp_ground": (np.float64, (), 0.0),  # d of SPEC 2 while touching a support
+    "roll_decel": (np.float64, (), 0.0),  # m/s^2 taken off the ground speed while touching a support
     "damp_ref": (np.int32, (), -1),  # node this one is damped relative to ("muscle"), or -1
     "damp_rel": (np.float64, (), 0.0),  # fraction of relative velocity removed per step
     "axle_a": (np.int32, (), -1),  # fixed axle (two locked nodes) this node spins about
