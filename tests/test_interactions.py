@@ -431,8 +431,10 @@ def test_a_kick_swings_in_front_of_the_body(tmp_path, scenes, monkeypatch, seed)
     swings, launch = [], play.launch_kick
 
     def watched(character, foot, end, duration):
-        swing = (np.asarray(end) - character.node(foot)) * np.array([1.0, 0.0, 1.0])
-        swings.append(float(character.facing @ swing) / float(np.linalg.norm(swing)))
+        game = scene.world.try_component(character.entity, play.Kicking)
+        if game is not None and game.phase == "back":  # the swing through the ball, after the backswing
+            swing = (np.asarray(end) - character.node(foot)) * np.array([1.0, 0.0, 1.0])
+            swings.append(float(character.facing @ swing) / float(np.linalg.norm(swing)))
         return launch(character, foot, end, duration)
 
     monkeypatch.setattr(play, "launch_kick", watched)

@@ -22,6 +22,7 @@ NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
 NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
 NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
 NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) until it ends
+NODE_KICK = 32  # the move is a kick's swing: it drives on through a loose ball it meets (collide)
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer

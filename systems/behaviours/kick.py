@@ -17,7 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from twig_ecs.store import MOVE_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import (
+    MOVE_ARC,
+    NODE_IN_CONTACT,
+    NODE_KICK,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_MOVING,
+)
 
 FEET = ("l_foot", "r_foot")
 
@@ -49,7 +56,7 @@ def launch_kick(character, foot: str, target, duration: float) -> None:
     p = n.pos[i].copy()
     v0 = (np.asarray(target, dtype=np.float64) - p) / duration - 0.5 * g * duration
     n.flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
-    n.flags[i] |= np.uint32(NODE_LOCK_ON_CONTACT | NODE_MOVING)
+    n.flags[i] |= np.uint32(NODE_LOCK_ON_CONTACT | NODE_MOVING | NODE_KICK)
     n.move_time[i] = duration
     n.move_gravity[i] = MOVE_ARC
     n.prev[i] = p - v0 * dt

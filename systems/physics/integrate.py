@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.step import StepContext
-from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_KICK, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 
 
@@ -55,6 +55,9 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
     dt2 = dt * dt
     for i in range(count):
         f = flags[i]
+        if f & NODE_KICK and (f & NODE_LOCKED or not f & NODE_MOVING or move_time[i] <= 0.0):
+            f &= ~np.uint32(NODE_KICK)  # a kick's mark lasts as long as its move
+            flags[i] = f
         if f & NODE_LOCKED:
             for k in range(3):
                 pos[i, k] = lock_pos[i, k]
@@ -70,7 +73,7 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
             # (NODE_MOVING makes it kinematic to them); a straight one ignores gravity
             move_time[i] = max(0.0, move_time[i] - dt)
             if move_time[i] == 0.0:
-                f &= ~np.uint32(NODE_MOVING)
+                f &= ~np.uint32(NODE_MOVING | NODE_KICK)
             d = 0.0
             ref = -1
             rolling = False
