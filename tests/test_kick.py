@@ -127,5 +127,7 @@ def test_a_1_2_m_childs_kick_sends_the_ball_off_at_3_m_s_or_more(play_kicks):
 def test_the_child_lines_up_to_kick_without_straddling_or_circling_the_ball(play_kicks):
     kicks, straddled = play_kicks
     assert straddled == 0, f"the ball lay between its feet for {straddled} steps"
-    slowest = max(k["lined_up"] for k in kicks)
-    assert slowest <= 6.0, f"it spent up to {slowest:.1f} s by the ball before kicking it"
+    times = [k["lined_up"] for k in kicks]
+    assert np.mean(times) <= 5.0 and max(times) <= 8.0, (
+        f"it spent {np.round(times, 1)} s by the ball before each kick"
+    )

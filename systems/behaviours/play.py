@@ -49,7 +49,7 @@ class Kicking:
     foot: str = ""  # the foot that kicked last ('l_foot' or 'r_foot')
     speed_before: float = 0.0  # m/s of the toy before the kick
     counted: bool = True  # has the last kick been judged (touched or missed)?
-    phase: str = ""  # the kick under way: "back" (backswing), "swing", "follow" (through); "" none
+    phase: str = ""  # the kick under way: "back" (backswing), "swing", "follow" (through), "down"; "" none
     phase_ends: float = -1e9  # s the current phase's arc ends
     aim: np.ndarray | None = None  # unit ground vector the kick under way sends the toy along
     contact: np.ndarray | None = None  # where the swinging foot's arc ends, through the toy
@@ -63,7 +63,7 @@ class ToyHome:
     at: np.ndarray
 
 
-BEHIND = 0.3  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks: the
+BEHIND = 0.26  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks: the
 # swing's lowest point (under the hip) meets the toy, and the standing foot is beside it
 LINE_UP = 0.2  # m (at 1.75 m tall): how near that spot it must be to kick
 CREEP = 0.45  # m/s: the least pace of the last steps (the field fades to nothing at the spot)
@@ -75,10 +75,14 @@ BACK_TIME = 0.2  # s of the backswing
 THROUGH = 0.05  # m beyond the toy's centre the swing's arc ends (within the leg's reach: a foot
 # sent beyond it is pulled in and slowed by the gait's guide)
 FOOT_SPEED = 7.0  # m/s of the swinging foot along the ground (5.8 m/s for a 1.2 m child)
-FOLLOW = 0.45  # m ahead of the hip the follow-through takes the foot ...
-FOLLOW_UP = 0.3  # m ... and this high
+FOLLOW = 0.78  # leg lengths ahead of the hip the follow-through takes the foot ...
+FOLLOW_DROP = 0.55  # ... and this many below it: the leg near straight, 35 degrees below level
 FOLLOW_TIME = 0.15  # s of the follow-through
+DOWN = 0.2  # m ahead of the hip the foot comes down after it ...
+DOWN_TIME = 0.2  # s ... in this long
 REACH = 0.9  # of the leg's horizontal reach at the swing's height: the furthest the swing ends
+SURE = 0.85  # of that reach: the furthest the toy's centre may be for a kick (at the edge of it,
+# the hip drawn back a little by the backswing, the swing ended at the toy's back: a tap)
 RUNUP = 0.5  # m (at 1.75 m tall) behind the spot that a child not yet lined up on the kicking
 # line walks to first, so that it comes up to the toy along the aim, facing it
 RUNUP_WIDTH = 0.2  # m (at 1.75 m tall) off the kicking line that is on it ...
@@ -100,6 +104,7 @@ DECK_CLEAR = 0.5  # m (at 1.75 m tall) beyond a deck's rim where the kicker stan
 TRIES = 8  # places drawn for the toy before taking the one furthest from the decks
 KICK_CONE = 0.7  # cos of the largest angle between the body's facing and a kick's swing (45 deg)
 TURN_PACE = 0.3  # m/s (at 1.75 m tall) of the steps that turn the body to a toy beside it
+TURN_STEP = 0.06  # m/s (at 1.75 m tall): the walk that turns the body to the aim on the kicking spot
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
 
 
@@ -340,15 +345,16 @@ class Play(Behavior):
         # toy off to the side of the kick is turned to first (slow steps towards it)
         contact = ball + aim * THROUGH * scale
         if float(aim @ character.facing) < KICK_CONE:
-            # a slow step along the aim turns the body to it (a step towards the toy itself,
-            # from beside it, swung the walk round and the body with it)
-            character.walk(aim * TURN_PACE * scale)
+            # a very slow walk along the aim turns the body to it on the spot (a step towards
+            # the toy itself, from beside it, swung the walk round and the body with it; a
+            # faster one took it off the spot, and back it came, facing the other way)
+            character.walk(aim * TURN_STEP * scale)
             return
         # at the toy's centre: the foot meets it square (lower, the leg's reach is shorter)
         contact[1] = ball[1]
         hip = character.node(HIPS[foot])
         ahead = float((contact - hip) @ aim)
-        if ahead > _reach(character, hip, contact[1]) or ahead < 0.5 * BEHIND * scale:
+        if ahead > SURE * _reach(character, hip, contact[1]) or ahead < 0.5 * BEHIND * scale:
             # the toy beyond the swing's reach (or under the hip): a slow step to or from it
             character.walk(aim * (TURN_PACE if ahead > 0.0 else -TURN_PACE) * scale)
             return
@@ -385,10 +391,18 @@ class Play(Behavior):
             swing = ground_distance(character.node(foot), end) / (FOOT_SPEED * scale**0.5)
             game.phase, game.phase_ends = "swing", now + _arc(character, foot, end, swing)
         elif game.phase == "swing":
-            end = hip + game.aim * FOLLOW * scale
-            end[1] = FOLLOW_UP * scale
+            # on, forwards and up, the leg near straight
+            leg = float(character.scene.state.characters.leg_length[character.character_row])
+            end = hip + game.aim * FOLLOW * leg
+            end[1] = hip[1] - FOLLOW_DROP * leg
             game.phase, game.phase_ends = "follow", now + _arc(character, foot, end, FOLLOW_TIME * scale**0.5)
-        else:  # the follow-through is over: the foot comes down (Play.act waits for it)
+        elif game.phase == "follow":
+            # and down, a step ahead of the standing foot (left to fall, the raised leg hung
+            # there with the knee bent, as if marching)
+            end = hip + game.aim * DOWN * scale
+            end[1] = 0.0
+            game.phase, game.phase_ends = "down", now + _arc(character, foot, end, DOWN_TIME * scale**0.5)
+        else:  # the foot is down (or about to be: Play.act waits for it)
             game.phase, game.kick_ends = "", now
 
     def stop(self, character, goal) -> None:
