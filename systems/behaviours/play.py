@@ -87,6 +87,7 @@ RUNUP = 0.5  # m (at 1.75 m tall) behind the spot that a child not yet lined up 
 # line walks to first, so that it comes up to the toy along the aim, facing it
 RUNUP_WIDTH = 0.2  # m (at 1.75 m tall) off the kicking line that is on it ...
 RUNUP_FROM = 0.9  # ... from this far behind the spot: then the last steps go straight along it
+DIRECT = 1.2  # m (at 1.75 m tall) from the run-up point within which it walks straight there
 LAST_PACE = 0.25  # m/s (at 1.75 m tall, by the root of the size): the least pace of those steps
 KICKING_FOOT = "r_foot"  # a child kicks with its stronger foot (the other stands beside the toy)
 AROUND = 0.6  # m (at 1.75 m tall) out from the toy that a child on its wrong side walks round it
@@ -256,14 +257,24 @@ class Play(Behavior):
         side = 1.0 if foot == "r_foot" else -1.0
         spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
         if self.yard:
-            # a toy by the fence: the spot behind it may be beyond the fence; stand
-            # inside and kick along (or off) the fence instead
+            # a toy by the fence: the spot behind it may be beyond the fence; kick along
+            # the fence instead (the aim with its part across the fence dropped), and
+            # stand inside
             lo, hi = self.yard
             inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
             if np.any(inside != spot[[0, 2]]):
-                spot[[0, 2]] = inside
-                aim = _flat_unit(ball - spot)
+                along = aim.copy()
+                along[[0, 2]] *= inside == spot[[0, 2]]  # keep only the part along the fence
+                if np.hypot(along[0], along[2]) < 1e-6:
+                    along = np.array([aim[2], 0.0, -aim[0]]) * (inside == spot[[0, 2]])[[0, 0, 1]]
+                aim = _flat_unit(along)
                 left = np.array([aim[2], 0.0, -aim[0]])
+                spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
+                inside = np.clip(spot[[0, 2]], lo + 0.25, hi - 0.25)
+                if np.any(inside != spot[[0, 2]]):
+                    spot[[0, 2]] = inside
+                    aim = _flat_unit(ball - spot)
+                    left = np.array([aim[2], 0.0, -aim[0]])
         spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
         behind = float((here - ball) @ aim) < -0.1 * scale
@@ -286,6 +297,13 @@ class Play(Behavior):
                     return
                 # else first to a run-up point further back on the line
                 goal = spot - aim * RUNUP * scale
+                gap = ground_distance(here, goal)
+                if gap < DIRECT * scale and speed <= ROLLING:
+                    # close by: straight there (the field holds a walker off a goal by a
+                    # fence, or circles it, a metre short)
+                    pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
+                    character.walk(_flat_unit(goal - here) * pace)
+                    return
             walk = approach_velocity(here, self._round_the_decks(here, goal, scale), obstacles, params)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP and ground_distance(here, goal) > LINE_UP * scale:
