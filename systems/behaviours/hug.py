@@ -75,7 +75,7 @@ from twig_ecs.systems.physics.collide import segment_gap2
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
-WRAP_TIME = 3.0  # s to get the arms round
+WRAP_TIME = 4.0  # s to get the arms round (the last step in included: the wrap begins 0.75 m out)
 REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and go round (the last step)
 CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
 WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root of its size:
@@ -87,7 +87,8 @@ SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after 
 PART_PACE = 0.7  # m/s (at 1.75 m tall, by the root of the size) of the steps back
 PART_TIME = 1.5  # s at most of stepping back (a wall behind it: it stops there)
 TURN_BACK = 1.5  # s at most of turning back to face the partner after
-PARTING = 1.05  # activation of stepping back: above goals, play and running home, below pain
+PARTING = 0.85  # activation of stepping back: above goals (0.8) and play, below squaring up to a
+# fighter (0.9: stepping back from a hug it was attacked and did not face the fighter) and pain
 LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
 LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
 LEAN_FADE = 10.0  # ... from full at this many degrees less
@@ -95,7 +96,7 @@ BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm 
 SMALL = 0.8  # a partner this many times the hugger's size is small: the hugger stoops to it
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up goes straight at the partner
 DOCK = 0.3  # m/s: the least pace of the last steps in - people slow down before they touch
-HAND_SPEED = 0.9  # m/s: how fast the point a hand reaches for glides round (a hand that
+HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
 # flew at the back would be a blow)
 ROUNDS = (1.1, 0.9, 0.7, 0.55, 0.45, 0.35, 0.3)  # rad past the torso's side, towards its spine, that a
 # hand goes round to: the furthest its arm reaches

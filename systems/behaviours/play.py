@@ -106,6 +106,7 @@ TRIES = 8  # places drawn for the toy before taking the one furthest from the de
 KICK_CONE = 0.7  # cos of the largest angle between the body's facing and a kick's swing (45 deg)
 TURN_PACE = 0.3  # m/s (at 1.75 m tall) of the steps that turn the body to a toy beside it
 TURN_STEP = 0.06  # m/s (at 1.75 m tall): the walk that turns the body to the aim on the kicking spot
+NEAR_HOME = 3.0  # m beyond its safe distance from its caregiver that an attached child kicks the toy to
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
 
 
@@ -181,17 +182,17 @@ class Play(Behavior):
             self.decks = decks_of(self.scene)
         return self.decks
 
-    def _target(self, toy_name: str, toy_at: np.ndarray, kicker_at: np.ndarray) -> np.ndarray:
+    def _target(self, toy_name: str, toy_at: np.ndarray, kicker) -> np.ndarray:
         """A new place to send the toy: inside the yard, or near where the toy started;
         away from any turning deck, and not across one; and onwards from where the kicker
         stands (within 60 degrees of the way from it to the toy, so it kicks from its own
         side instead of walking round the toy). Of a few draws, the first that does both,
         else the best: the clearest of the decks, then the most onwards."""
         decks = self._decks()
-        toward = _flat_unit(toy_at - kicker_at)
+        toward = _flat_unit(toy_at - kicker.position)
         best, score = None, (-np.inf, -np.inf)
         for _ in range(TRIES):
-            place = self._draw_target(toy_name, toy_at)
+            place = self._draw_target(toy_name, toy_at, kicker)
             clear = min(deck_clearance(decks, place, place) - DECK_MARGIN,
                         deck_clearance(decks, toy_at, place) - DECK_PATH)  # fmt: skip
             onwards = float(_flat_unit(place - toy_at) @ toward)
@@ -202,11 +203,28 @@ class Play(Behavior):
                 break
         return best
 
-    def _draw_target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
-        """A place drawn at random: inside the yard, or near where the toy started."""
+    def _draw_target(self, toy_name: str, toy_at: np.ndarray, kicker) -> np.ndarray:
+        """A place drawn at random: inside the yard, or near where the toy started; for a
+        child tied to a caregiver, near the caregiver (a kick sends the ball 10-20 m, and
+        a child sent after it that far soon runs home instead of playing)."""
         if self.yard is False:
             self.yard = yard_of(self.scene)
         rng = self.scene.rng
+        attachment = self.world.try_component(kicker.entity, Attachment)
+        if attachment is not None and self.scene.has_entity(attachment.caregiver):
+            home = self.scene.entity(attachment.caregiver).position
+            angle, r = (
+                rng.uniform(0.0, 2.0 * np.pi),
+                (attachment.safe_distance + NEAR_HOME) * np.sqrt(rng.uniform()),
+            )
+            x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
+            if self.yard is not None:
+                lo, hi = self.yard
+                x, z = (
+                    np.clip(x, lo[0] + YARD_MARGIN, hi[0] - YARD_MARGIN),
+                    np.clip(z, lo[1] + YARD_MARGIN, hi[1] - YARD_MARGIN),
+                )
+            return np.array([x, 0.0, z])
         if self.yard is not None:
             lo, hi = self.yard
             lo, hi = lo + YARD_MARGIN, np.maximum(hi - YARD_MARGIN, lo + YARD_MARGIN)
@@ -232,7 +250,7 @@ class Play(Behavior):
         game = self.world.try_component(character.entity, Kicking)
         stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
         if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
-            game = Kicking(self._target(playful.toy, ball, character.position), chosen_at=now)
+            game = Kicking(self._target(playful.toy, ball, character), chosen_at=now)
             self.world.add_component(character.entity, game)
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
@@ -270,7 +288,7 @@ class Play(Behavior):
                 aim = _flat_unit(along)
                 left = np.array([aim[2], 0.0, -aim[0]])
                 spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
-                inside = np.clip(spot[[0, 2]], lo + 0.25, hi - 0.25)
+                inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
                 if np.any(inside != spot[[0, 2]]):
                     spot[[0, 2]] = inside
                     aim = _flat_unit(ball - spot)
@@ -424,7 +442,10 @@ class Play(Behavior):
             game.phase, game.kick_ends = "", now
 
     def stop(self, character, goal) -> None:
-        """Stop running."""
+        """Stop running; a kick under way is given up (its foot comes down as it falls)."""
+        game = self.world.try_component(character.entity, Kicking)
+        if game is not None and game.phase:
+            game.phase, game.kick_ends = "", self.scene.time
         character.stop()
 
 
