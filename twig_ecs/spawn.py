@@ -135,7 +135,7 @@ def spawn_body(
         nodes.inv_mass[i] = 1.0 / m
         nodes.radius[i] = radii[k] * scale
         d = damping or spec.damping or template.damping
-        nodes.damp_air[i], nodes.damp_ground[i] = d.air, d.ground
+        nodes.damp_air[i], nodes.damp_ground[i], nodes.roll_decel[i] = d.air, d.ground, d.rolling
         flags = 0
         if spec.locked:
             flags |= NODE_LOCKED

@@ -22,6 +22,7 @@ NODE_LOCK_ON_CONTACT = 2  # becomes LOCKED when it touches the ground
 NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
 NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
 NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) until it ends
+NODE_KICK = 32  # the move is a kick's swing: it drives on through a loose ball it meets (collide)
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer
@@ -54,6 +55,7 @@ NODE_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "radius": (np.float64, (), 0.0),  # contact radius against the ground and as a sphere
     "damp_air": (np.float64, (), 0.0),  # d of SPEC 2 when not touching a support
     "damp_ground": (np.float64, (), 0.0),  # d of SPEC 2 while touching a support
+    "roll_decel": (np.float64, (), 0.0),  # m/s^2 taken off the ground speed while touching a support
     "damp_ref": (np.int32, (), -1),  # node this one is damped relative to ("muscle"), or -1
     "damp_rel": (np.float64, (), 0.0),  # fraction of relative velocity removed per step
     "axle_a": (np.int32, (), -1),  # fixed axle (two locked nodes) this node spins about

@@ -55,11 +55,13 @@ NODE_KEYS = ("at", "mass", "radius", "locked", "lock_on_contact", "sphere", "dam
 LINK_KEYS = ("nodes", "radius", "visible", "collide", "self_collide", "self_group", "length", "rope", "brace",
              "color")  # fmt: skip
 LIMIT_KEYS = ("hinge", "frame", "side", "ref", "arc")
-DAMPING_KEYS = ("air", "ground")
+DAMPING_KEYS = ("air", "ground", "rolling")
 PAIN_KEYS = ("threshold", "half_life", "gain")
 DEFAULT_KEYS = ("height", "mass")
 #: A body's height (m) and total mass (kg): the ranges a scene and the server's spawn accept.
 HEIGHT = between(0.01, 100.0)
+#: Rolling resistance (m/s^2, ``damping: {rolling}``): 0 (none) up to ten times gravity.
+ROLLING = between(0.0, 100.0)
 MASS = between(1e-3, 1e6)
 #: A node's mass (kg at the reference height, or its share of a given total mass): a
 #: denormal such as 5e-324 has an infinite inverse, and the body's nodes become NaN.
@@ -74,6 +76,10 @@ class Damping:
 
     air: float = 0.01
     ground: float = 0.3
+    #: m/s^2: rolling resistance while touching a support - a constant deceleration of the
+    #: speed along the ground, which stops it (a ball on grass or tarmac: 0.2-0.6), on top of
+    #: ``ground`` (a fraction per step, which only ever halves the speed again and again)
+    rolling: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,14 +179,16 @@ class BodyTemplate:
 
 
 def read_damping(doc: YDict, key: str, path: str, default: Damping | None) -> Damping | None:
-    """A ``damping: {air, ground}`` mapping (each a fraction removed per step)."""
+    """A ``damping: {air, ground, rolling}`` mapping (air and ground: fractions removed per step;
+    rolling: a deceleration in m/s^2)."""
     if key not in doc:
         return default
     d = read(doc, key, path, mapping)
     here = join(path, key)
     check_keys(d, here, DAMPING_KEYS)
     base = default or Damping()
-    return Damping(read(d, "air", here, fraction, base.air), read(d, "ground", here, fraction, base.ground))
+    return Damping(read(d, "air", here, fraction, base.air), read(d, "ground", here, fraction, base.ground),
+                   read(d, "rolling", here, ROLLING, base.rolling))  # fmt: skip
 
 
 def read_pain(doc: YDict, key: str, path: str, default: PainSensor | None) -> PainSensor | None:

@@ -111,7 +111,7 @@ class AttachmentBehavior(Behavior):
         """Glance: stand and look at the caregiver. Anxious: queue a hug and go."""
         attachment = self.settings(character)
         if attachment.anxiety >= attachment.return_at:
-            character.hug(attachment.caregiver, duration=1.5, on_end=Soothe(attachment))
+            character.hug(attachment.caregiver, duration=1.5, run=True, on_end=Soothe(attachment))
             self._end_glance(character)
             return
         character.stop()

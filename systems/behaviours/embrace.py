@@ -82,6 +82,23 @@ def glide_hand(pos, hand_node, hand_aim, arm_point, arm_node, arm_mode, row, h, 
     arm_mode[row, h] = REACH
 
 
+def mutual_hug(scene, entity: int, goal) -> tuple[int, object] | None:
+    """Two told to hug each other: when ``goal`` (the hug of ``entity``) is the one told
+    second, its partner's hug goal aimed back at it leads: (the leader's character row, its
+    goal); None when it leads, or its partner is not hugging it back."""
+    target = goal.params.get("target")
+    if not scene.has_entity(target):
+        return None
+    other = scene.entity(target).entity
+    mind = scene.world.try_component(other, Mind)
+    theirs = mind.goal if mind is not None else None
+    if theirs is None or theirs.behavior != "hug" or theirs.params.get("target") != scene.name_of(entity):
+        return None
+    if (theirs.id, other) > (goal.id, entity):
+        return None  # told first: it leads
+    return scene.world.component_for_entity(other, Character).index, theirs
+
+
 def lower_hands(character) -> None:
     """Forget where the hands were gliding to (a hug or an embrace is over)."""
     character.scene.state.characters.hand_aim[character.character.index] = np.nan
@@ -206,6 +223,13 @@ class Embrace(Behavior):
             if me is None or them is None:
                 continue
             mind = self.world.component_for_entity(hugged, Mind)
+            own = mind.goal
+            if (
+                own is not None
+                and own.behavior == "hug"
+                and own.params.get("target") == scene.name_of(hugger)
+            ):
+                continue  # hugging it back: two told to hug each other (the hug answers, not the embrace)
             pairs.append((hugged, mind, me.index, hugger, them.index, goal))
         return pairs
 

@@ -1,11 +1,19 @@
-"""hug: approach with arms out, put both arms round the target, hold, let go (SPEC 4).
+"""hug: walk up, put both arms round the target, hold, let go and step back (SPEC 4).
 
-Goal-driven (``character.hug(target, duration=2)``). Phases, kept in the goal's memory:
-``approach`` (walk up with the arms in the hug pose, slowing to docking pace), ``wrap``
-(close in at a creep while each hand - a free one, or one holding a small thing such as
-a doll, which goes round holding it - glides round the target's torso to a point on its
-back), ``hold`` (for ``duration`` seconds, standing in touch; a small hugger leans into a
-grown-up's legs, a grown-up stoops to a small child), then the arms drop and it is done.
+Goal-driven (``character.hug(target, duration=2, run=False)``). Phases, kept in the goal's
+memory: ``approach`` (walk up at the hugger's own pace - or run, ``run=True`` - its arms
+swinging, braking over the last steps), ``wrap`` (the last step in, slowing to a creep:
+the arms rise, aimed at the partner's torso at the partner's height, each hand - a free
+one, or one holding a small thing such as a doll, which goes round holding it - gliding
+round the target's torso to a point on its back), ``hold`` (for ``duration``
+seconds, standing in touch; a small hugger leans into a grown-up's legs, a grown-up
+stoops to a small child); then the arms drop and it is done. Letting go, both step back
+to a social gap (:class:`StepBack`, a short wind-down after the goal, like a reflex).
+
+Two characters each told to hug the other: the one told first leads (its arms go round
+the other's upper back), the other walks up too and answers as a hugged partner does
+(:func:`~twig_ecs.systems.behaviours.embrace.embrace_arms`: hands round the leader's
+waist); when the leader lets go both goals are done and both step back.
 
 The arms are not joined to the target: the hands are pulled to their places on its back
 and the bodies keep colliding all the while, so an arm wraps round the torso's surface
@@ -23,6 +31,7 @@ touched on) packed once per goal.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
@@ -49,28 +58,44 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.behaviours.approach import steer_to
 from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the partner's answer to a hug)
+    FACED,
     HOLD,
     PHASES,
     STAND_UP,
     STOOP,
+    TURN_PACE,
     WRAP,
+    embrace_arms,
     glide_hand,
+    holding_hands,
     lower_hands,
+    mutual_hug,
 )
 from twig_ecs.systems.physics.collide import segment_gap2
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
-WRAP_TIME = 3.0  # s to get the arms round
-REACH_IN = 0.25  # m beyond CLOSE where the walk-up ends and the arms start to go round
-CREEP = 0.3  # m/s of the last steps in, arms going round
+WRAP_TIME = 4.0  # s to get the arms round (the last step in included: the wrap begins 0.75 m out)
+REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and go round (the last step)
+CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
+WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root of its size:
+# bodies of other sizes walk alike at equal Froude numbers - a 1.05 m child ~1.0 m/s)
+RUN_FROUDE = 1.2  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
+BRAKE = 1.5  # m/s^2: how hard the walk-up slows over its last steps (a person stops within a step)
+SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug (turning back
+# to face each other brings them in a little: they end 0.8-0.9 m apart)
+PART_PACE = 0.7  # m/s (at 1.75 m tall, by the root of the size) of the steps back
+PART_TIME = 1.5  # s at most of stepping back (a wall behind it: it stops there)
+TURN_BACK = 1.5  # s at most of turning back to face the partner after
+PARTING = 0.85  # activation of stepping back: above goals (0.8) and play, below squaring up to a
+# fighter (0.9: stepping back from a hug it was attacked and did not face the fighter) and pain
 LEAN_IN = 0.22  # m (at 1.75 m tall) a small hugger's shoulders lean into a big partner
 LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
 LEAN_FADE = 10.0  # ... from full at this many degrees less
 BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
 SMALL = 0.8  # a partner this many times the hugger's size is small: the hugger stoops to it
-DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up slows to docking pace
-DOCK = 0.45  # m/s: docking pace - people slow down before they touch
+DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up goes straight at the partner
+DOCK = 0.3  # m/s: the least pace of the last steps in - people slow down before they touch
 HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
 # flew at the back would be a blow)
 ROUNDS = (1.1, 0.9, 0.7, 0.55, 0.45, 0.35, 0.3)  # rad past the torso's side, towards its spine, that a
@@ -131,8 +156,8 @@ def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
 
 # fmt: off
 @njit(cache=True)
-def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, hand_aim, arm_point, arm_node,
-             arm_mode, crows, partners, phase, surface, gap_links, gap_start, gap_count, rounds, dt,
+def hug_arms(pos, prev, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, hand_aim, arm_point,
+             arm_node, arm_mode, crows, partners, phase, surface, gap_links, gap_start, gap_count, rounds, dt,
              on_back, stoop_at, asks):
     """Move every hugger whose arms are going round (``phase[k]`` WRAP) or holding (HOLD) at once:
     row k is character ``crows[k]`` hugging character ``partners[k]``. Closes in at a creep
@@ -160,7 +185,9 @@ def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, h
         if (phase[k] == WRAP and n > near
                 and torso_gap(pos, nodes, c, s, link_a, link_b, link_radius,
                               gap_links[gap_start[k]:gap_start[k] + gap_count[k]]) > TOUCH * s):
-            walk[c, 0], walk[c, 1], walk[c, 2] = tx * CREEP, 0.0, tz * CREEP
+            # the last step in, braking as the walk-up did (v = sqrt(2 a d) stops it at ``near``)
+            pace = clamp(math.sqrt(2.0 * BRAKE * (n - near)), CREEP, WALK_PACE * math.sqrt(s))
+            walk[c, 0], walk[c, 1], walk[c, 2] = tx * pace, 0.0, tz * pace
             if mode[c] == SIT:
                 asks[k] = STAND_UP
         else:
@@ -175,6 +202,11 @@ def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, h
             pitch = math.degrees(math.atan2(math.sqrt(ux * ux + uz * uz), uy))
             share = clamp((LEAN_MOST - pitch) / LEAN_FADE, 0.0, 1.0)
             lean[c, 0], lean[c, 1], lean[c, 2] = tx * LEAN_IN * s * share, 0.0, tz * LEAN_IN * s * share
+        # the hands glide at HAND_SPEED relative to the hugger's body: on the last steps in,
+        # the body carries them on too (gliding only at HAND_SPEED over the ground, they
+        # trailed behind the walk and got round only once it stopped)
+        carried = math.sqrt((pos[nd[PELVIS], 0] - prev[nd[PELVIS], 0]) ** 2
+                            + (pos[nd[PELVIS], 2] - prev[nd[PELVIS], 2]) ** 2)
         # round the partner's torso node nearest the hugger's shoulder height, less a little
         # (level_of): a child round a grown-up's hips, equals round the upper back
         shoulder_y = pos[nd[NECK], 1] - 0.1 * s
@@ -230,7 +262,7 @@ def hug_arms(pos, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, h
                 out = 1.15 * math.sqrt((px - cx) ** 2 + (pz - cz) ** 2)
                 px = cx + out * (_COS_PAST * lx * side + _SIN_PAST * ux)
                 pz = cz + out * (_COS_PAST * lz * side + _SIN_PAST * uz)
-            glide_hand(pos, palm, hand_aim, arm_point, arm_node, arm_mode, c, h, px, y, pz, step)
+            glide_hand(pos, palm, hand_aim, arm_point, arm_node, arm_mode, c, h, px, y, pz, step + carried)
         if phase[k] == WRAP:
             on_back[k] = count_hands_on_back(pos, nd[SPINE], nd[L_HAND], nd[R_HAND], od[PELVIS], od[SPINE],
                                              od[NECK])
@@ -243,10 +275,11 @@ class Hug(Behavior):
 
     schema = GoalSchema(
         "hug",
-        "Walk up to a character, put both arms round it for `duration` s, let go.",
+        "Walk up to a character, put both arms round it for `duration` s, let go and step back.",
         (
             Param("target", "name", figure=True, doc="whom to hug"),
             seconds("duration", 2.0, "how long the arms stay round it"),
+            Param("run", "bool", False, doc="run up to it (a child running home), not walk"),
         ),
     )
     batch = True
@@ -256,20 +289,29 @@ class Hug(Behavior):
         self.act_batch([character.character.index], [character.entity], dt, goals=[goal])
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
-        """Walk up (per character), then wrap and hold for every hugger at once."""
+        """Walk up and step back (per character), then wrap and hold for every hugger at once
+        (and answer, as a hugged partner does, for every one led in a mutual hug)."""
         scene = self.scene
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        close = []
+        close, answering = [], []
         for row, entity, goal in zip(rows, entities, goals, strict=True):
             if goal is None:
                 continue
-            if goal.memory.get("phase", "approach") == "approach":
-                self._walk_up(scene.character_handle(entity), goal)
+            phase = goal.memory.get("phase", "approach")
+            leader = mutual_hug(scene, entity, goal)
+            if leader is not None and phase in ("wrap", "hold"):
+                answering.append((row, entity, goal, leader))
+            elif phase == "approach":
+                self._walk_up(scene.character_handle(entity), goal, self._hugged_back(entity, goal))
+            elif goal.memory.get("led"):  # it answered a mutual hug, and the leader has let go
+                self.finish(scene.character_handle(entity), goal)
             else:
                 close.append((row, entity, goal))
         if close:
             self._wrap_and_hold(close, dt)
+        if answering:
+            self._answer(answering, dt)
 
     def _partner(self, character, goal: Goal):
         """The hug's partner (a character), or None when the goal has failed for want of one."""
@@ -283,25 +325,89 @@ class Hug(Behavior):
             return None
         return other
 
-    def _walk_up(self, character, goal: Goal) -> None:
-        """Walk up with the arms in the hug pose, slowing to docking pace; then wrap."""
+    def _hugged_back(self, entity: int, goal: Goal) -> bool:
+        """Is the partner of this hug walking up to hug it too (a mutual hug, either side)?"""
+        target = goal.params["target"]
+        if not self.scene.has_entity(target):
+            return False
+        mind = self.world.try_component(self.scene.entity(target).entity, Mind)
+        theirs = mind.goal if mind is not None else None
+        return (theirs is not None and theirs.behavior == "hug"
+                and theirs.params.get("target") == self.scene.name_of(entity))  # fmt: skip
+
+    def _walk_up(self, character, goal: Goal, mutual: bool) -> None:
+        """Walk (or run) up at its own pace, arms swinging, braking over the last steps; the
+        arms rise in the last step or two, opening towards the partner's chest; then wrap.
+        ``mutual``: the partner is walking up too (each brakes for half the gap left)."""
         other = self._partner(character, goal)
         if other is None:
             return
         target = goal.params["target"]
         character.look_at(target, node="head")
-        character.pose("hug")
+        scale = character.scale
+        big = other.scale > BIG * scale
+        wrap_at = (CLOSE if big else CLOSE_EQUAL) * scale + REACH_IN
         gap = ground_distance(character.position, other.position)
-        if gap <= CLOSE * character.scale + REACH_IN:
+        if gap <= wrap_at:
             goal.memory["phase"], goal.memory["since"] = "wrap", character.scene.time
-        elif gap < DOCK_FROM:
-            here = other.position - character.position
-            toward = here * np.array([1.0, 0.0, 1.0])
-            norm = math.hypot(toward[0], toward[2])
-            # the last steps in, at docking pace
-            character.walk(toward / norm * DOCK if norm > 1e-9 else toward)
+            return
+        character.pose("hang")  # the arms swing as it walks: they rise as the wrap begins
+        pace = own_pace(character, bool(goal.params.get("run", False)))
+        if gap < DOCK_FROM:
+            # the last steps, straight in: v = sqrt(2 a d) stops it as the torsos meet
+            left = (gap - (wrap_at - REACH_IN)) * (0.5 if mutual else 1.0)
+            speed = clamp(math.sqrt(2.0 * BRAKE * max(left, 0.0)), DOCK, pace)
+            toward = (other.position - character.position) * np.array([1.0, 0.0, 1.0])
+            character.walk(toward / max(gap, 1e-9) * speed)
         else:
-            steer_to(character, goal, target, DOCK_FROM - 0.1)
+            # round what is in the way, at its own pace; aimed at the partner itself (the
+            # field slows only over the last metre, which the straight steps above take).
+            # Two walking up to each other head for where the other is now: matching its
+            # pace (pursuit, for a partner walking off) would halve both their paces
+            where = other.position if mutual else target
+            steer_to(character, goal, where, 0.0, exclude=(target,), speed=pace)
+
+    def _let_go(self, character, goal: Goal) -> None:
+        """The hold is over: done; the two step back from each other (:class:`StepBack`)."""
+        self.finish(character, goal)
+        target = goal.params["target"]
+        if not character.scene.has_entity(target):
+            return
+        other = character.scene.entity(target).entity
+        mind = self.world.try_component(other, Mind)
+        theirs = mind.goal if mind is not None else None
+        if theirs is not None and theirs.memory.get("led") and theirs.params.get("target") == character.name:
+            self.finish(character.scene.character_handle(other), theirs)  # it answered this hug: done too
+        step_back(character.scene, character.entity, other)
+
+    def _answer(self, answering: list, dt: float) -> None:
+        """Mutual hugs: every one led by the other (told second) holds its leader as a hugged
+        partner does (:func:`embrace_arms`), in the leader's phase; its own goal follows the
+        leader's: it holds while the leader holds, and lets go when the leader does."""
+        scene = self.scene
+        state = scene.state
+        ch = state.characters
+        crows = np.array([row for row, _, _, _ in answering], dtype=np.int64)
+        leaders = np.array([ch_row for _, _, _, (ch_row, _) in answering], dtype=np.int64)
+        phase = np.array([PHASES.get(lead_goal.memory.get("phase", "approach"), 0)
+                          for _, _, _, (_, lead_goal) in answering], dtype=np.int64)  # fmt: skip
+        ch.gaze_node[crows] = ch.nodes[leaders, HEAD]
+        ch.gaze_mode[crows] = GAZE_NODE
+        stoop_at = np.empty((len(answering), 3))
+        asks = np.empty(len(answering), dtype=np.int64)
+        entities = [entity for _, entity, _, _ in answering]
+        embrace_arms(state.nodes.pos, ch.nodes, ch.scale, ch.mode, ch.walk, ch.crouch, ch.lean, ch.hand_aim,
+                     ch.arm_point, ch.arm_node, ch.arm_mode, crows, leaders, phase,
+                     holding_hands(scene, entities), dt, stoop_at, asks)  # fmt: skip
+        for k, (_, entity, goal, (_, lead_goal)) in enumerate(answering):
+            character = scene.character_handle(entity)
+            if asks[k] & STAND_UP:
+                character.stand()
+            if asks[k] & STOOP:
+                character.stoop(stoop_at[k].copy())
+            goal.memory["led"] = True
+            if lead_goal.memory.get("phase") == "hold" and goal.memory.get("phase") != "hold":
+                goal.memory["phase"], goal.memory["since"] = "hold", scene.time
 
     def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
         """One goal's fixed figures: (partner's character row, its thickest capsule at neck,
@@ -377,8 +483,9 @@ class Hug(Behavior):
         asks = np.empty(len(close), dtype=np.int64)
         stoop_at = np.empty((len(close), 3))
         links = state.links
-        hug_arms(state.nodes.pos, links.a, links.b, links.radius, ch.nodes, ch.scale, ch.mode, ch.walk,
-                 ch.lean, ch.hand_aim, ch.arm_point, ch.arm_node, ch.arm_mode, crows, partners, phase,
+        hug_arms(state.nodes.pos, state.nodes.prev, links.a, links.b, links.radius, ch.nodes, ch.scale,
+                 ch.mode, ch.walk, ch.lean, ch.hand_aim, ch.arm_point, ch.arm_node, ch.arm_mode, crows,
+                 partners, phase,
                  packed["surface"], packed["gap_links"], packed["gap_start"], packed["gap_count"], _ROUNDS,
                  dt, on_back, stoop_at, asks)  # fmt: skip
         now = scene.time
@@ -395,7 +502,7 @@ class Hug(Behavior):
             if not ending[k]:
                 continue
             if phase[k] == HOLD:
-                self.finish(character, goal)
+                self._let_go(character, goal)
             elif on_back[k]:  # both hands round, or one short arm round a broad body in time
                 goal.memory["phase"], goal.memory["since"] = "hold", now
             else:
@@ -414,9 +521,85 @@ class Hug(Behavior):
         character.look_at(None)
 
 
+def own_pace(character, run: bool = False) -> float:
+    """A character's own pace (m/s): its walk (``WALK_PACE`` by the root of its size), or a
+    run at ``RUN_FROUDE`` for its legs (v = sqrt(Fr g L)), whichever ``run`` asks for."""
+    if run:
+        leg = float(character.scene.state.characters.leg_length[character.character_row])
+        return math.sqrt(RUN_FROUDE * abs(character.scene.settings.gravity[1]) * leg)
+    return WALK_PACE * math.sqrt(character.scale)
+
+
 def hands_on_back(holder, held) -> int:
     """How many of ``holder``'s hands are on ``held``'s back (:func:`count_hands_on_back`)."""
     pos = holder.scene.state.nodes.pos
     hands = (holder.node_row("spine"), holder.node_row("l_hand"), holder.node_row("r_hand"))
     back = (held.node_row("pelvis"), held.node_row("spine"), held.node_row("neck"))
     return int(count_hands_on_back(pos, *hands, *back))
+
+
+@dataclass(slots=True)
+class Parting:
+    """Stepping back after a hug (systems/behaviours/hug.py): from whom, until when at most,
+    and whether it has got to a social gap and is turning back to face the partner."""
+
+    partner: int  # entity of the one it hugged or was hugged by
+    until: float  # s (scene time): it stops then, wherever it is
+    turning: bool = False  # far enough: now turning to face the partner again
+
+
+def step_back(scene, a: int, b: int) -> None:
+    """Two who have just let go of a hug step back from each other (the characters of the two)."""
+    until = scene.time + PART_TIME
+    for me, other in ((a, b), (b, a)):
+        if scene.world.has_component(me, Character) and scene.world.has_component(me, Mind):
+            scene.world.add_component(me, Parting(other, until))
+
+
+@register
+class StepBack(Behavior):
+    """After a hug: arms down, a few steps away from the partner to a social gap, then a
+    turn on the spot to face it again.
+
+    Runs even for a scripted character, as a reflex does: it is the hug's wind-down (the goal
+    is done when the arms let go), and it lasts ``PART_TIME`` (and ``TURN_BACK``) at most.
+    The gait walks where the pelvis faces, so the steps away turn the body from the
+    partner; it turns back once there.
+    """
+
+    name = "step_back"
+    component = Parting
+    reflex = True
+
+    def activation(self, character, mind: Mind, goal) -> float:
+        """High until it stands at a social gap facing the partner (or the time is up)."""
+        parting = self.world.component_for_entity(character.entity, Parting)
+        if self.scene.time > parting.until or not self.world.entity_exists(parting.partner):
+            return 0.0
+        return PARTING
+
+    def act(self, character, mind: Mind, goal, dt: float) -> None:
+        """Step away from the partner until the pelvises are ``SOCIAL`` apart, then face it."""
+        parting = self.world.component_for_entity(character.entity, Parting)
+        other = self.scene.character_handle(parting.partner)
+        away = (character.position - other.position) * np.array([1.0, 0.0, 1.0])
+        gap = float(np.hypot(away[0], away[2]))
+        away /= max(gap, 1e-9)
+        character.pose("hang")
+        character.look_at(other.name, node="head")
+        if not parting.turning and gap >= SOCIAL * max(character.scale, other.scale):
+            parting.turning, parting.until = True, self.scene.time + TURN_BACK
+        if not parting.turning:
+            character.walk(away * PART_PACE * math.sqrt(character.scale))
+        elif float(character.facing @ -away) < math.cos(FACED):
+            character.walk(-away * TURN_PACE * character.scale)  # slow steps on the spot, turning to it
+        else:
+            parting.until = self.scene.time  # facing it at a social gap: over
+            character.stop()
+
+    def stop(self, character, goal) -> None:
+        """Stand; the parting is forgotten."""
+        if self.world.has_component(character.entity, Parting):
+            self.world.remove_component(character.entity, Parting)
+        character.stop()
+        character.look_at(None)

@@ -2,11 +2,14 @@
 
 A kick is a rare event (a behaviour decides on one now and then), so it is plain Python
 on one character: the kicking foot is unlocked and sent, like a step of
-:mod:`twig_ecs.systems.control.gait`, on an arc under gravity that ends at a point beyond the
-ball; the foot's step timer (``swing`` in the character table) runs for the kick's
-duration, so the gait neither plants that foot nor starts another step until it is over,
-and the foot locks again where it lands. The ball moves only because the leg's capsules
-meet it on the way (the collide system): a kick that misses leaves it where it was.
+:mod:`twig_ecs.systems.control.gait`, on an arc under gravity to a point (play sends it on
+three: backswing, swing through the ball, follow-through); the foot's step timer
+(``swing`` in the character table) runs for the arc's duration, so the gait neither plants
+that foot nor starts another step until it is over, and the foot locks again where it
+lands. The ball moves only because the leg's capsules meet it on the way (the collide
+system): a kick that misses leaves it where it was. The arc is marked ``NODE_KICK``: it
+drives on through a loose ball it meets (the ball takes the whole contact correction)
+instead of being stopped by it; the mark ends with the move.
 
 The gait is not changed: the kick writes the same fields a step writes (``flags``,
 ``move_time``, ``move_gravity``, ``prev`` and ``swing``), so the two never both drive a
@@ -17,7 +20,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from twig_ecs.store import MOVE_ARC, NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED, NODE_MOVING
+from twig_ecs.store import (
+    MOVE_ARC,
+    NODE_IN_CONTACT,
+    NODE_KICK,
+    NODE_LOCK_ON_CONTACT,
+    NODE_LOCKED,
+    NODE_MOVING,
+)
 
 FEET = ("l_foot", "r_foot")
 
@@ -49,7 +59,7 @@ def launch_kick(character, foot: str, target, duration: float) -> None:
     p = n.pos[i].copy()
     v0 = (np.asarray(target, dtype=np.float64) - p) / duration - 0.5 * g * duration
     n.flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
-    n.flags[i] |= np.uint32(NODE_LOCK_ON_CONTACT | NODE_MOVING)
+    n.flags[i] |= np.uint32(NODE_LOCK_ON_CONTACT | NODE_MOVING | NODE_KICK)
     n.move_time[i] = duration
     n.move_gravity[i] = MOVE_ARC
     n.prev[i] = p - v0 * dt

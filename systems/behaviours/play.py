@@ -2,11 +2,14 @@
 
 For each character with a :class:`Playful`: its activation is its
 joy, damped by its anxiety if it has an attachment. Winning, it picks a place to send
-the toy (inside the yard, if the scene has fences round it: see :func:`yard_of`), runs
-round to the far side of the toy from there, slows as it comes up behind it and swings
-the foot that stands behind the toy through it on a ballistic arc
-(:func:`twig_ecs.systems.behaviours.kick.launch_kick`). The toy moves only because the leg's
-capsules hit it; a kick that misses leaves it lying, and the child lines up again.
+the toy (inside the yard, if the scene has fences round it: see :func:`yard_of`; of a few
+places drawn, one it can kick the toy to from the side it is on, so it need not walk
+round the toy), goes to the spot behind the toy from there, slows as it comes up and
+kicks with the foot on the line through the toy: a backswing (the foot behind the
+standing hip, heel up), the swing through the toy and a follow-through, each a ballistic
+arc (:func:`twig_ecs.systems.behaviours.kick.launch_kick`), the other foot planted beside
+and a little behind the toy. The toy moves only because the leg's capsules hit it; a
+kick that misses leaves it lying, and the child lines up again.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.behaviours.approach import obstacles_near
 from twig_ecs.systems.behaviours.kick import FEET, foot_busy, launch_kick
+
+HIPS = {"l_foot": "l_hip", "r_foot": "r_hip"}  # the hip above each foot
 
 
 @dataclass(slots=True)
@@ -44,6 +49,10 @@ class Kicking:
     foot: str = ""  # the foot that kicked last ('l_foot' or 'r_foot')
     speed_before: float = 0.0  # m/s of the toy before the kick
     counted: bool = True  # has the last kick been judged (touched or missed)?
+    phase: str = ""  # the kick under way: "back" (backswing), "swing", "follow" (through), "down"; "" none
+    phase_ends: float = -1e9  # s the current phase's arc ends
+    aim: np.ndarray | None = None  # unit ground vector the kick under way sends the toy along
+    contact: np.ndarray | None = None  # where the swinging foot's arc ends, through the toy
 
 
 @dataclass(slots=True)
@@ -54,13 +63,36 @@ class ToyHome:
     at: np.ndarray
 
 
-BEHIND = 0.6  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks
-LINE_UP = 0.35  # m (at 1.75 m tall): how near that spot it must be to kick
+BEHIND = 0.26  # m (at 1.75 m tall): pelvis to toy centre, along the aim, when it kicks: the
+# swing's lowest point (under the hip) meets the toy, and the standing foot is beside it
+LINE_UP = 0.2  # m (at 1.75 m tall): how near that spot it must be to kick
 CREEP = 0.45  # m/s: the least pace of the last steps (the field fades to nothing at the spot)
 RETHINK = 5.0  # s lining up without a kick: send the toy somewhere else
-THROUGH = 0.3  # m (at 1.75 m tall) beyond the toy's centre that the foot's arc ends
-FOOT_SPEED = 5.5  # m/s (at 1.75 m tall) of the swinging foot along the ground
-LIFT = 0.12  # m (at 1.75 m tall) above the toy's centre where the arc ends: the foot rises into it
+# the kick, in three ballistic arcs of the kicking foot (at 1.75 m tall; times by the root of the size)
+BACK = 0.3  # m behind the hip the backswing takes the foot ...
+BACK_UP = 0.22  # m ... and this high (the knee bends, the heel comes up)
+BACK_TIME = 0.2  # s of the backswing
+THROUGH = 0.05  # m beyond the toy's centre the swing's arc ends (within the leg's reach: a foot
+# sent beyond it is pulled in and slowed by the gait's guide)
+FOOT_SPEED = 7.0  # m/s of the swinging foot along the ground (5.8 m/s for a 1.2 m child)
+FOLLOW = 0.78  # leg lengths ahead of the hip the follow-through takes the foot ...
+FOLLOW_DROP = 0.55  # ... and this many below it: the leg near straight, 35 degrees below level
+FOLLOW_TIME = 0.15  # s of the follow-through
+DOWN = 0.2  # m ahead of the hip the foot comes down after it ...
+DOWN_TIME = 0.2  # s ... in this long
+REACH = 0.9  # of the leg's horizontal reach at the swing's height: the furthest the swing ends
+SURE = 0.85  # of that reach: the furthest the toy's centre may be for a kick (at the edge of it,
+# the hip drawn back a little by the backswing, the swing ended at the toy's back: a tap)
+RUNUP = 0.5  # m (at 1.75 m tall) behind the spot that a child not yet lined up on the kicking
+# line walks to first, so that it comes up to the toy along the aim, facing it
+RUNUP_WIDTH = 0.2  # m (at 1.75 m tall) off the kicking line that is on it ...
+RUNUP_FROM = 0.9  # ... from this far behind the spot: then the last steps go straight along it
+DIRECT = 1.2  # m (at 1.75 m tall) from the run-up point within which it walks straight there
+LAST_PACE = 0.25  # m/s (at 1.75 m tall, by the root of the size): the least pace of those steps
+KICKING_FOOT = "r_foot"  # a child kicks with its stronger foot (the other stands beside the toy)
+AROUND = 0.6  # m (at 1.75 m tall) out from the toy that a child on its wrong side walks round it
+AHEAD = 0.5  # cos of the largest angle between where the toy is sent and the way from the child
+# to the toy that a new place is drawn for (60 degrees: no walk round the toy to kick it)
 SLOW = 0.6  # m/s: the last steps up to the toy
 SETTLE = 0.25  # s after a kick before lining up again
 LAND_WAIT = 1.0  # s after a kick at most that it waits for the kicking foot to come down
@@ -73,6 +105,8 @@ DECK_CLEAR = 0.5  # m (at 1.75 m tall) beyond a deck's rim where the kicker stan
 TRIES = 8  # places drawn for the toy before taking the one furthest from the decks
 KICK_CONE = 0.7  # cos of the largest angle between the body's facing and a kick's swing (45 deg)
 TURN_PACE = 0.3  # m/s (at 1.75 m tall) of the steps that turn the body to a toy beside it
+TURN_STEP = 0.06  # m/s (at 1.75 m tall): the walk that turns the body to the aim on the kicking spot
+NEAR_HOME = 3.0  # m beyond its safe distance from its caregiver that an attached child kicks the toy to
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
 
 
@@ -148,26 +182,49 @@ class Play(Behavior):
             self.decks = decks_of(self.scene)
         return self.decks
 
-    def _target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
+    def _target(self, toy_name: str, toy_at: np.ndarray, kicker) -> np.ndarray:
         """A new place to send the toy: inside the yard, or near where the toy started;
-        away from any turning deck, and not across one (of a few draws, the clearest)."""
+        away from any turning deck, and not across one; and onwards from where the kicker
+        stands (within 60 degrees of the way from it to the toy, so it kicks from its own
+        side instead of walking round the toy). Of a few draws, the first that does both,
+        else the best: the clearest of the decks, then the most onwards."""
         decks = self._decks()
-        best, clearest = None, -np.inf
-        for _ in range(TRIES if decks else 1):
-            place = self._draw_target(toy_name, toy_at)
+        toward = _flat_unit(toy_at - kicker.position)
+        best, score = None, (-np.inf, -np.inf)
+        for _ in range(TRIES):
+            place = self._draw_target(toy_name, toy_at, kicker)
             clear = min(deck_clearance(decks, place, place) - DECK_MARGIN,
                         deck_clearance(decks, toy_at, place) - DECK_PATH)  # fmt: skip
-            if clear > clearest:
-                best, clearest = place, clear
-            if clear >= 0.0:
+            onwards = float(_flat_unit(place - toy_at) @ toward)
+            mine = (min(clear, 0.0), onwards)
+            if mine > score:
+                best, score = place, mine
+            if clear >= 0.0 and onwards >= AHEAD:
                 break
         return best
 
-    def _draw_target(self, toy_name: str, toy_at: np.ndarray) -> np.ndarray:
-        """A place drawn at random: inside the yard, or near where the toy started."""
+    def _draw_target(self, toy_name: str, toy_at: np.ndarray, kicker) -> np.ndarray:
+        """A place drawn at random: inside the yard, or near where the toy started; for a
+        child tied to a caregiver, near the caregiver (a kick sends the ball 10-20 m, and
+        a child sent after it that far soon runs home instead of playing)."""
         if self.yard is False:
             self.yard = yard_of(self.scene)
         rng = self.scene.rng
+        attachment = self.world.try_component(kicker.entity, Attachment)
+        if attachment is not None and self.scene.has_entity(attachment.caregiver):
+            home = self.scene.entity(attachment.caregiver).position
+            angle, r = (
+                rng.uniform(0.0, 2.0 * np.pi),
+                (attachment.safe_distance + NEAR_HOME) * np.sqrt(rng.uniform()),
+            )
+            x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
+            if self.yard is not None:
+                lo, hi = self.yard
+                x, z = (
+                    np.clip(x, lo[0] + YARD_MARGIN, hi[0] - YARD_MARGIN),
+                    np.clip(z, lo[1] + YARD_MARGIN, hi[1] - YARD_MARGIN),
+                )
+            return np.array([x, 0.0, z])
         if self.yard is not None:
             lo, hi = self.yard
             lo, hi = lo + YARD_MARGIN, np.maximum(hi - YARD_MARGIN, lo + YARD_MARGIN)
@@ -193,7 +250,7 @@ class Play(Behavior):
         game = self.world.try_component(character.entity, Kicking)
         stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
         if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
-            game = Kicking(self._target(playful.toy, ball), chosen_at=now)
+            game = Kicking(self._target(playful.toy, ball, character), chosen_at=now)
             self.world.add_component(character.entity, game)
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
@@ -201,6 +258,9 @@ class Play(Behavior):
             if speed > game.speed_before + 0.3:  # the foot met it: it went off faster
                 playful.touches += 1
         character.look_at(playful.toy)
+        if game.phase:
+            self._kick_on(character, game)
+            return
         landing = game.foot and now < game.kick_ends + LAND_WAIT and not character.is_locked(game.foot)
         if now < game.kick_ends + SETTLE or landing:
             # the kick is in flight: stand on the other foot until the kicking one is down
@@ -209,20 +269,30 @@ class Play(Behavior):
             return
         aim = _flat_unit(game.aim_at - ball)
         left = np.array([aim[2], 0.0, -aim[0]])  # the body's left when facing along the aim
-        foot = self._kicking_foot(character, ball, aim, left)
+        foot = KICKING_FOOT
         # the pelvis stands behind the toy, shifted sideways so the kicking foot is on
         # the line through it
         side = 1.0 if foot == "r_foot" else -1.0
         spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
         if self.yard:
-            # a toy by the fence: the spot behind it may be beyond the fence; stand
-            # inside and kick along (or off) the fence instead
+            # a toy by the fence: the spot behind it may be beyond the fence; kick along
+            # the fence instead (the aim with its part across the fence dropped), and
+            # stand inside
             lo, hi = self.yard
             inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
             if np.any(inside != spot[[0, 2]]):
-                spot[[0, 2]] = inside
-                aim = _flat_unit(ball - spot)
+                along = aim.copy()
+                along[[0, 2]] *= inside == spot[[0, 2]]  # keep only the part along the fence
+                if np.hypot(along[0], along[2]) < 1e-6:
+                    along = np.array([aim[2], 0.0, -aim[0]]) * (inside == spot[[0, 2]])[[0, 0, 1]]
+                aim = _flat_unit(along)
                 left = np.array([aim[2], 0.0, -aim[0]])
+                spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
+                inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
+                if np.any(inside != spot[[0, 2]]):
+                    spot[[0, 2]] = inside
+                    aim = _flat_unit(ball - spot)
+                    left = np.array([aim[2], 0.0, -aim[0]])
         spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
         behind = float((here - ball) @ aim) < -0.1 * scale
@@ -231,10 +301,31 @@ class Play(Behavior):
         params = SteeringParams(speed=playful.speed if far > 1.0 else min(playful.speed, SLOW))
         obstacles = obstacles_near(character, exclude, params.cutoff)
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
-            walk = approach_velocity(here, self._round_the_decks(here, spot, scale), obstacles, params)
+            if not behind:  # on the toy's wrong side: round it first
+                goal = _round_the_toy(here, ball, aim, left, scale)
+            else:
+                off = here - spot
+                lateral, back = abs(float(off @ left)), -float(off @ aim)
+                on_line = lateral < RUNUP_WIDTH * scale and -LINE_UP * scale < back < RUNUP_FROM * scale
+                if on_line and speed <= ROLLING:
+                    # on the kicking line behind the spot: the last steps straight along it
+                    # (facing the aim when it gets there), slowing as it comes up
+                    pace = min(SLOW, max(LAST_PACE, 1.5 * far)) * scale**0.5
+                    character.walk(_flat_unit(spot - here) * pace)
+                    return
+                # else first to a run-up point further back on the line
+                goal = spot - aim * RUNUP * scale
+                gap = ground_distance(here, goal)
+                if gap < DIRECT * scale and speed <= ROLLING:
+                    # close by: straight there (the field holds a walker off a goal by a
+                    # fence, or circles it, a metre short)
+                    pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
+                    character.walk(_flat_unit(goal - here) * pace)
+                    return
+            walk = approach_velocity(here, self._round_the_decks(here, goal, scale), obstacles, params)
             pace = float(np.linalg.norm(walk))
-            if 1e-6 < pace < CREEP:
-                walk *= CREEP / pace
+            if 1e-6 < pace < CREEP and ground_distance(here, goal) > LINE_UP * scale:
+                walk *= CREEP / pace  # (at the goal itself it would circle it)
             character.walk(walk)
             return
         self._kick(character, foot, ball, aim, game, speed)
@@ -277,41 +368,111 @@ class Play(Behavior):
             return np.array([point[0], here[1], point[1]])
         return spot
 
-    def _kicking_foot(self, character, ball: np.ndarray, aim: np.ndarray, left: np.ndarray) -> str:
-        """The foot nearer the line through the toy along the aim."""
-        offsets = [abs(float((character.node(f) - ball) @ left)) for f in FEET]
-        return FEET[int(np.argmin(offsets))]
-
     def _kick(self, character, foot: str, ball: np.ndarray, aim: np.ndarray, game: Kicking,
               speed: float) -> None:  # fmt: skip
-        """Swing ``foot`` through the toy towards the aim; the other foot stays planted."""
+        """Begin a kick with ``foot`` towards the aim: the backswing (the other foot stays planted)."""
         scale = character.scale
         other = FEET[1 - FEET.index(foot)]
-        start = character.node(foot)
         if not character.scene.state.nodes.flags[character.node_row(other)] & NODE_LOCKED:
             character.stop()  # wait for the standing foot to plant
             return
-        # the arc ends beyond the toy, on the aim line - but only a swing in front of the body:
+        # the swing ends through the toy, on the aim line - but only a swing in front of the body:
         # a foot swung across or behind it spins the child round on its standing foot, so a
         # toy off to the side of the kick is turned to first (slow steps towards it)
-        end = ball + aim * THROUGH * scale
-        if float(_flat_unit(end - start) @ character.facing) < KICK_CONE:
-            character.walk(_flat_unit(ball - character.position) * TURN_PACE * scale)
+        contact = ball + aim * THROUGH * scale
+        if float(aim @ character.facing) < KICK_CONE:
+            # a very slow walk along the aim turns the body to it on the spot (a step towards
+            # the toy itself, from beside it, swung the walk round and the body with it; a
+            # faster one took it off the spot, and back it came, facing the other way)
+            character.walk(aim * TURN_STEP * scale)
             return
-        # and above its centre: the foot meets it rising, under the centre, and lofts it
-        # (a ball rolling on the ground soon stops)
-        end[1] = ball[1] + LIFT * scale
-        run = ground_distance(start, end)
-        duration = max(0.06, run / (FOOT_SPEED * scale**0.5))
+        # at the toy's centre: the foot meets it square (lower, the leg's reach is shorter)
+        contact[1] = ball[1]
+        hip = character.node(HIPS[foot])
+        ahead = float((contact - hip) @ aim)
+        if ahead > SURE * _reach(character, hip, contact[1]) or ahead < 0.5 * BEHIND * scale:
+            # the toy beyond the swing's reach (or under the hip): a slow step to or from it
+            character.walk(aim * (TURN_PACE if ahead > 0.0 else -TURN_PACE) * scale)
+            return
+        # behind both hips: the kicking one and the standing one (a body turned a little
+        # away from the aim has the standing hip further back)
+        back = hip - aim * (BACK * scale + max(0.0, float((hip - character.node(HIPS[other])) @ aim)))
+        back[1] = BACK_UP * scale
         character.stop()
-        launch_kick(character, foot, end, duration)
         now = character.scene.time
-        game.kicked_at, game.kick_ends, game.foot = now, now + duration, foot
+        game.phase, game.phase_ends = "back", now + _arc(character, foot, back, BACK_TIME * scale**0.5)
+        game.aim, game.contact = aim.copy(), contact
+        game.kicked_at, game.kick_ends, game.foot = now, np.inf, foot
         game.speed_before, game.counted = speed, False
 
-    def stop(self, character, goal) -> None:
-        """Stop running."""
+    def _kick_on(self, character, game: Kicking) -> None:
+        """The kick under way: stand on the other foot; as each arc ends, the next - the swing
+        through the toy after the backswing, the follow-through after the swing."""
         character.stop()
+        now = character.scene.time
+        if now < game.phase_ends:
+            return
+        scale = character.scale
+        foot = game.foot
+        hip = character.node(HIPS[foot])
+        if game.phase == "back":
+            # through the toy, as far as the leg reaches at that height: the gait's guide pulls
+            # a foot sent further in and slows it to a walking foot's pace
+            end = game.contact.copy()
+            flat = _reach(character, hip, end[1])
+            off = (end - hip) * np.array([1.0, 0.0, 1.0])
+            far = float(np.hypot(off[0], off[2]))
+            if far > flat:
+                end[[0, 2]] = hip[[0, 2]] + off[[0, 2]] * (flat / far)
+            swing = ground_distance(character.node(foot), end) / (FOOT_SPEED * scale**0.5)
+            game.phase, game.phase_ends = "swing", now + _arc(character, foot, end, swing)
+        elif game.phase == "swing":
+            # on, forwards and up, the leg near straight
+            leg = float(character.scene.state.characters.leg_length[character.character_row])
+            end = hip + game.aim * FOLLOW * leg
+            end[1] = hip[1] - FOLLOW_DROP * leg
+            game.phase, game.phase_ends = "follow", now + _arc(character, foot, end, FOLLOW_TIME * scale**0.5)
+        elif game.phase == "follow":
+            # and down, a step ahead of the standing foot (left to fall, the raised leg hung
+            # there with the knee bent, as if marching)
+            end = hip + game.aim * DOWN * scale
+            end[1] = 0.0
+            game.phase, game.phase_ends = "down", now + _arc(character, foot, end, DOWN_TIME * scale**0.5)
+        else:  # the foot is down (or about to be: Play.act waits for it)
+            game.phase, game.kick_ends = "", now
+
+    def stop(self, character, goal) -> None:
+        """Stop running; a kick under way is given up (its foot comes down as it falls)."""
+        game = self.world.try_component(character.entity, Kicking)
+        if game is not None and game.phase:
+            game.phase, game.kick_ends = "", self.scene.time
+        character.stop()
+
+
+def _round_the_toy(here: np.ndarray, toy: np.ndarray, aim: np.ndarray, left: np.ndarray,
+                   scale: float) -> np.ndarray:  # fmt: skip
+    """Where to head for while not yet behind the toy: a point beside it, on the side the
+    child is on, ``AROUND`` out and a little behind - so it walks round the toy to the
+    kicking spot instead of straight through it (the spot lies beyond the toy)."""
+    side = 1.0 if float((here - toy) @ left) >= 0.0 else -1.0
+    return toy + (left * side - aim * 0.5) * AROUND * scale
+
+
+def _reach(character, hip: np.ndarray, height: float) -> float:
+    """How far (m, on the ground) from ``hip`` a swinging foot reaches at ``height``, less a
+    margin (``REACH``): the gait's guide pulls a foot sent further in, and slows it."""
+    leg = float(character.scene.state.characters.leg_length[character.character_row])
+    drop = hip[1] - height
+    return REACH * float(np.sqrt(max(0.0, (0.99 * leg) ** 2 - drop * drop)))
+
+
+def _arc(character, foot: str, end: np.ndarray, duration: float) -> float:
+    """Send ``foot`` on a ballistic arc to ``end`` in ``duration`` s, rounded up to whole steps
+    (so the next arc begins the step this one ends); returns that time less half a step."""
+    dt = character.scene.dt
+    steps = max(2, int(np.ceil(duration / dt - 1e-9)))
+    launch_kick(character, foot, end, steps * dt)
+    return (steps - 0.5) * dt
 
 
 def _flat_unit(v: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.step import StepContext
-from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import NODE_IN_CONTACT, NODE_KICK, NODE_LOCKED, NODE_MOVING, NODE_SPHERE, columns
 from twig_ecs.system import System
 from twig_ecs.systems.physics.constrain import (
     SETTLE_PASSES,
@@ -366,6 +366,19 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         wb = _felt_weight(inv_mass, flags, b) if b != a else 0.0
         wc = _felt_weight(inv_mass, flags, c)
         wd = _felt_weight(inv_mass, flags, d) if d != c else 0.0
+        # ... except a loose ball met by a kick: the kicking foot drives on through it, the
+        # leg's muscles behind it, and the ball takes the whole correction (0.65 kg of a
+        # child's foot sharing it with a 0.4 kg ball sent it off at under half the foot's speed)
+        ball_i = a == b and (flags[a] & NODE_SPHERE) != 0 and (flags[a] & NODE_LOCKED) == 0
+        ball_j = c == d and (flags[c] & NODE_SPHERE) != 0 and (flags[c] & NODE_LOCKED) == 0
+        kick_i = ball_j and ((flags[a] | flags[b]) & NODE_KICK) != 0
+        kick_j = ball_i and ((flags[c] | flags[d]) & NODE_KICK) != 0
+        if kick_i:
+            wa = 0.0 if flags[a] & NODE_KICK else wa
+            wb = 0.0 if flags[b] & NODE_KICK else wb
+        if kick_j:
+            wc = 0.0 if flags[c] & NODE_KICK else wc
+            wd = 0.0 if flags[d] & NODE_KICK else wd
         sa = 1.0 - s if b != a else 1.0
         tc = 1.0 - t if d != c else 1.0
         wi = sa * sa * wa + s * s * wb
@@ -444,9 +457,15 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         nudge(pos, c, -fc, nx, ny, nz)
         nudge(pos, d, -fd, nx, ny, nz)
         # a foot knocked off its ballistic path stops being kinematic to its leg's links,
-        # or the leg would stretch after it
-        for q in (a, b, c, d):
-            flags[q] &= ~np.uint32(NODE_MOVING)
+        # or the leg would stretch after it - but not by a loose ball it swings through (a
+        # kick goes on through a ball: stopped at the first touch, the leg gave a 0.4 kg
+        # ball under 2 m/s)
+        if not kick_i:
+            flags[a] &= ~np.uint32(NODE_MOVING)
+            flags[b] &= ~np.uint32(NODE_MOVING)
+        if not kick_j:
+            flags[c] &= ~np.uint32(NODE_MOVING)
+            flags[d] &= ~np.uint32(NODE_MOVING)
         # a contact pushing a capsule upwards supports it: high (ground) damping, and a foot
         # may plant there. Only another body's: a knee resting on its own other thigh, or one
         # shin crossed over the other in a turn, marked the foot as standing on something and

@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.step import StepContext
-from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_KICK, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 
 
@@ -30,6 +30,7 @@ class IntegrateColumns(NamedTuple):
     inv_mass: np.ndarray
     damp_air: np.ndarray
     damp_ground: np.ndarray
+    roll_decel: np.ndarray
     damp_ref: np.ndarray
     damp_rel: np.ndarray
     move_time: np.ndarray
@@ -45,6 +46,7 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
     pos, prev, vel = cols.pos, cols.prev, cols.vel
     acc, ctrl_acc, lock_pos = cols.acc, cols.ctrl_acc, cols.lock_pos
     inv_mass, damp_air, damp_ground = cols.inv_mass, cols.damp_air, cols.damp_ground
+    roll_decel = cols.roll_decel
     damp_ref, damp_rel = cols.damp_ref, cols.damp_rel
     move_time, move_gravity, flags = cols.move_time, cols.move_gravity, cols.flags
     for i in range(count):
@@ -53,6 +55,9 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
     dt2 = dt * dt
     for i in range(count):
         f = flags[i]
+        if f & NODE_KICK and (f & NODE_LOCKED or not f & NODE_MOVING or move_time[i] <= 0.0):
+            f &= ~np.uint32(NODE_KICK)  # a kick's mark lasts as long as its move
+            flags[i] = f
         if f & NODE_LOCKED:
             for k in range(3):
                 pos[i, k] = lock_pos[i, k]
@@ -60,6 +65,7 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
                 acc[i, k] = 0.0
             continue
         d = damp_ground[i] if f & NODE_IN_CONTACT else damp_air[i]
+        rolling = roll_decel[i] > 0.0 and (f & NODE_IN_CONTACT) != 0
         g = 1.0 if inv_mass[i] > 0.0 else 0.0
         ref = damp_ref[i]
         if move_time[i] > 0.0:
@@ -67,17 +73,24 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
             # (NODE_MOVING makes it kinematic to them); a straight one ignores gravity
             move_time[i] = max(0.0, move_time[i] - dt)
             if move_time[i] == 0.0:
-                f &= ~np.uint32(NODE_MOVING)
+                f &= ~np.uint32(NODE_MOVING | NODE_KICK)
             d = 0.0
             ref = -1
+            rolling = False
             if move_gravity[i] == MOVE_LINE:
                 g = 0.0
         # a speed limit: no part of a body moves faster than max_speed, so a rare
         # fight between constraints cannot fling a node across the scene
         speed = math.sqrt(vel[i, 0] ** 2 + vel[i, 1] ** 2 + vel[i, 2] ** 2) / dt
         cap = max_speed / speed if speed > max_speed else 1.0
+        # rolling resistance (a rolling body touching a support, not in a move): the ground
+        # speed |v_xz| drops by a dt each step, to rest and no further
+        roll = 1.0
+        if rolling:
+            flat = math.sqrt(vel[i, 0] ** 2 + vel[i, 2] ** 2) * cap
+            roll = max(0.0, flat - roll_decel[i] * dt2) / flat if flat > 0.0 else 1.0
         for k in range(3):
-            v = vel[i, k] * cap
+            v = vel[i, k] * cap * (roll if k != 1 else 1.0)
             if ref >= 0:
                 # "muscle" damping: remove part of the velocity relative to ref
                 v -= damp_rel[i] * (v - vel[ref, k])

@@ -1,0 +1,133 @@
+"""Kicks that read (issue 34): a ball that rolls as on a playground, a kick with a backswing
+that sends it off fast, and a run-up that neither circles nor straddles the ball."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene
+
+
+def roll(speed: float, seconds: float = 30.0) -> tuple[float, float]:
+    """A ball sent rolling at ``speed`` m/s on open ground: (metres it went, seconds until it stopped)."""
+    with Scene.load("empty") as scene:
+        ball = scene.spawn("ball", name="ball")
+        scene.run(0.5)
+        nodes, i = scene.state.nodes, ball.body.node_start
+        nodes.prev[i] = nodes.pos[i] - np.array([speed, 0.0, 0.0]) * scene.dt
+        start, stopped = nodes.pos[i].copy(), None
+        for _ in range(round(seconds / scene.dt)):
+            scene.step()
+            if stopped is None and np.linalg.norm(nodes.pos[i] - nodes.prev[i]) / scene.dt < 0.01:
+                stopped = scene.time - 0.5
+        return float(np.hypot(*(nodes.pos[i] - start)[[0, 2]])), stopped
+
+
+def test_a_ball_rolling_at_3_m_s_goes_several_metres_and_then_stops():
+    went, stopped = roll(3.0)
+    assert 4.0 <= went <= 15.0, f"a 3 m/s roll went {went:.2f} m"
+    assert stopped is not None and stopped < 12.0, "rolling resistance brings it to rest"
+    # a playground's deceleration: 0.2-0.6 m/s^2 on average
+    assert 0.2 <= 3.0 / stopped <= 0.7, f"it slowed at {3.0 / stopped:.2f} m/s^2 on average"
+
+
+def test_a_ball_given_rolling_resistance_in_a_scene_file_rolls_that_far(tmp_path):
+    path = tmp_path / "scene.yaml"
+    path.write_text(
+        "twig: 1\nentities:\n  - {name: ball, body: ball, damping: {air: 0.0, ground: 0.0, rolling: 1.0}}\n"
+    )
+    with Scene.load(path) as scene:
+        scene.run(0.5)
+        nodes, i = scene.state.nodes, scene.entity("ball").body.node_start
+        nodes.prev[i] = nodes.pos[i] - np.array([0.0, 0.0, 2.0]) * scene.dt
+        start = nodes.pos[i].copy()
+        scene.run(4.0)
+        went = float(np.hypot(*(nodes.pos[i] - start)[[0, 2]]))
+    assert abs(went - 2.0**2 / (2 * 1.0)) < 0.1, f"v^2 / 2a = 2 m at 1 m/s^2; it went {went:.2f} m"
+
+
+# -- a 1.2 m child playing with the ball on open ground: kicks as the play behaviour makes them ----
+
+PLAY = (
+    "twig: 1\nentities:\n"
+    "  - {name: kid, body: humanoid, height: 1.2, position: [0, 0, 0], character: true,\n"
+    "     behaviors: [{use: play, toy: ball, joy: 0.5, speed: 1.6}]}\n"
+    "  - {name: ball, body: ball, position: [1.0, 0, 2.0]}\n"
+)
+SEEDS, SECONDS = (0, 3), 45.0
+
+
+def kicks_of_a_minute_of_play(path, seed: int) -> tuple[list[dict], int]:
+    """Each kick of ``SECONDS`` of play: at its swing, where the kicking foot was against the
+    standing hip along the aim (negative: behind it), the ball's top speed in the 0.8 s after,
+    and the seconds it spent within 1.2 m of the resting ball before it; and the steps the
+    ball lay between the child's feet (straddled)."""
+    from twig_ecs.systems.behaviours.play import Kicking
+
+    kicks, straddled, near_since, phase = [], 0, None, ""
+    with Scene.load(path, seed=seed) as scene:
+        kid, ball = scene.character_handle(scene.entity("kid").entity), scene.entity("ball")
+        last, speeds = ball.position.copy(), []
+        while scene.time < SECONDS:
+            scene.step()
+            speed = float(np.linalg.norm(ball.position - last)) / scene.dt
+            last = ball.position.copy()
+            speeds.append((scene.time, speed))
+            feet = kid.node("l_foot"), kid.node("r_foot")
+            span = float(np.hypot(*(feet[0] - feet[1])[[0, 2]]))
+            between = float(np.hypot(*(ball.position - 0.5 * (feet[0] + feet[1]))[[0, 2]]))
+            straddled += span > 0.15 and between < 0.35 * span
+            if near_since is None and speed < 1.5 and np.hypot(*(kid.position - ball.position)[[0, 2]]) < 1.2:
+                near_since = scene.time
+            game = scene.world.try_component(kid.entity, Kicking)
+            now = game.phase if game is not None else ""
+            if now == "back" and phase == "":
+                lined_up = scene.time - near_since if near_since is not None else 0.0
+                kicks.append({"at": scene.time, "lined_up": lined_up})
+            if now == "swing" and phase == "back":
+                other = "l_hip" if game.foot == "r_foot" else "r_hip"
+                kicks[-1]["back"] = float((kid.node(game.foot) - kid.node(other)) @ game.aim)
+            if now == "" and phase:
+                near_since = None
+            phase = now
+        for kick in kicks:
+            kick["ball"] = max((s for t, s in speeds if kick["at"] <= t <= kick["at"] + 0.8), default=0.0)
+    return kicks, straddled
+
+
+@pytest.fixture(scope="module")
+def play_kicks(tmp_path_factory) -> tuple[list[dict], int]:
+    """The kicks of ``SECONDS`` of play for each of ``SEEDS``, and the steps the ball was straddled."""
+    path = tmp_path_factory.mktemp("kick") / "play.yaml"
+    path.write_text(PLAY)
+    every, straddled = [], 0
+    for seed in SEEDS:
+        kicks, steps = kicks_of_a_minute_of_play(path, seed)
+        every += kicks
+        straddled += steps
+    return every, straddled
+
+
+def test_kicks_start_with_a_backswing_the_kicking_foot_behind_the_standing_hip(play_kicks):
+    kicks, _ = play_kicks
+    swung = [k for k in kicks if "back" in k]
+    assert len(swung) >= 5, "it kicks again and again"
+    behind = sum(k["back"] < 0.0 for k in swung)
+    assert behind >= 0.8 * len(swung), f"{behind} of {len(swung)} kicks began with the foot behind the hip"
+
+
+def test_a_1_2_m_childs_kick_sends_the_ball_off_at_3_m_s_or_more(play_kicks):
+    kicks, _ = play_kicks
+    speeds = sorted(k["ball"] for k in kicks if "back" in k and k["at"] < SECONDS - 1.0)
+    assert speeds[0] >= 0.0 and np.median(speeds) >= 3.0, f"the ball went off at {np.round(speeds, 1)} m/s"
+    assert sum(s >= 3.0 for s in speeds) >= 0.7 * len(speeds), f"{np.round(speeds, 1)} m/s"
+
+
+def test_the_child_lines_up_to_kick_without_straddling_or_circling_the_ball(play_kicks):
+    kicks, straddled = play_kicks
+    assert straddled == 0, f"the ball lay between its feet for {straddled} steps"
+    times = [k["lined_up"] for k in kicks]
+    assert np.mean(times) <= 5.0 and max(times) <= 8.0, (
+        f"it spent {np.round(times, 1)} s by the ball before each kick"
+    )
