@@ -168,5 +168,7 @@ def load_builtin_behaviors() -> dict[str, type[Behavior]]:
 
 
 def builtin_goal_schemas() -> list[GoalSchema]:
-    """The schemas of the built-in goal behaviours, in the order they are registered."""
-    return [cls.schema for cls in load_builtin_behaviors().values() if cls.schema is not None]
+    """The schemas of the built-in goal behaviours, modules by name and classes in the order
+    their module defines them (as :func:`builtin_behaviors`: never the order some test or
+    plug-in happened to import them in, which reordered the docs' tables)."""
+    return [cls.schema for cls in builtin_behaviors() if cls.schema is not None]
