@@ -115,7 +115,7 @@ def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray
 WALKING, ARRIVED, STUCK, SAT, CHECK = 0, 1, 2, 3, 4
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, crows, pelvis, me, target,
                 point, stop, direction, curl, max_speed, mode, best, best_at, squeeze_until, now, dt, params,
                 cx, cz, spread, wide, blocked, wall_body, wall_start, wall_links, link_a, link_b,

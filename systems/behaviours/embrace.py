@@ -62,7 +62,7 @@ WRAP, HOLD = PHASES["wrap"], PHASES["hold"]
 STAND_UP, STOOP = 1, 2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def glide_hand(pos, hand_node, hand_aim, arm_point, arm_node, arm_mode, row, h, px, py, pz, step):
     """Reach hand ``h`` (0 left, 1 right) of character ``row`` for a point that moves from
     where it got to (``hand_aim``; the hand itself when NaN: it starts gliding) towards
@@ -105,7 +105,7 @@ def lower_hands(character) -> None:
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def embrace_arms(pos, nodes, scale, mode, walk, crouch, lean, hand_aim, arm_point, arm_node, arm_mode,
                  crows, huggers, phase, free, dt, stoop_at, asks):
     """Move every embracing character at once: row k is character ``crows[k]`` held by the

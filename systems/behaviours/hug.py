@@ -116,7 +116,7 @@ _COS_PAST, _SIN_PAST = math.cos(PAST), math.sin(PAST)
 _TORSO = (NECK, SPINE, PELVIS)  # the torso nodes an arm goes round, top down (level_of's choice)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def count_hands_on_back(pos, spine, l_hand, r_hand, pelvis_at, spine_at, neck_at):
     """How many of a holder's hands (nodes ``l_hand``, ``r_hand``; its spine ``spine``) are on
     a held body's back: beyond its torso (the pelvis, spine or neck node nearest the hand,
@@ -139,7 +139,7 @@ def count_hands_on_back(pos, spine, l_hand, r_hand, pelvis_at, spine_at, neck_at
     return count
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
     """Surface distance (m) from character ``c``'s torso capsules (lower and upper spine; scale
     ``s``) to the nearest of the partner's capsules ``rows`` (link rows: its collidable
@@ -155,7 +155,7 @@ def torso_gap(pos, nodes, c, s, link_a, link_b, link_radius, rows):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def hug_arms(pos, prev, link_a, link_b, link_radius, nodes, scale, mode, walk, lean, hand_aim, arm_point,
              arm_node, arm_mode, crows, partners, phase, surface, gap_links, gap_start, gap_count, rounds, dt,
              on_back, stoop_at, asks):

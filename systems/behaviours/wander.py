@@ -56,7 +56,7 @@ def _cell(ix, iz, mask):
     return ((ix * 73856093) ^ (iz * 19349663)) & mask
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def steer_crowd(pos, node_body, n_nodes, ch_nodes, ch_body, rows, goal, speed, best, best_at, arrive,
                 now, patience, walk, redraw, head, nxt, near_d2, near_node, touched, obstacles,
                 params):  # fmt: skip

@@ -43,7 +43,7 @@ WAVE_HZ = 1.6
 MAX_ACC = 120.0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def unfold(pos, prev, s, e, w):
     """Keep the elbow of shoulder ``s``, elbow ``e``, hand ``w`` from folding past ELBOW_MOST.
 
@@ -70,7 +70,7 @@ def unfold(pos, prev, s, e, w):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def control_arms(pos, prev, acc, nodes, arm_mode, arm_point, arm_node, gesture_phase, n_chars, gravity,
                  dt):
     """Add arm accelerations for every character with a controlled arm."""

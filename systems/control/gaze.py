@@ -34,7 +34,7 @@ MAX_PITCH = math.radians(60.0)
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, head_dir, n_chars, dt):
     """Turn every character's ``head_dir`` towards its gaze target."""
     for c in range(n_chars):

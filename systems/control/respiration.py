@@ -22,7 +22,7 @@ RUN_DEPTH = 0.014  # m at 3 m/s and faster
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def breathe(pos, prev, rest, nodes, breath_links, breath_rest, breath_phase, scale, n_chars, dt):
     """Advance every character's breath and set its shoulder link lengths."""
     for c in range(n_chars):

@@ -27,7 +27,7 @@ STEP_OVER = 0.3  # m: bodies with no node higher than this are no obstacle
 WIDE = 1.0  # m: a body whose nodes spread further than this from its centre is steered round as a disc
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def body_footprints(pos, body, flags, n, locked, cx, cz, spread, free):
     """Per body, from its first ``n`` nodes: ground centre (``cx``, ``cz``: the mean of its
     nodes), squared spread (the furthest node from it on the ground) and how many of its
@@ -70,7 +70,7 @@ def _ground_bucket(x, z, cell, mask):
     return cell_hash(int(math.floor(x / cell)), 0, int(math.floor(z / cell)), mask)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def ground_grid(pos, n, cell, start, entries):
     """Bin the first ``n`` nodes by their ground cell (x, z) in a spatial hash.
 
@@ -115,7 +115,7 @@ def disc_buckets(x, z, radius, cell, mask, buckets):
     return nb
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, step_over, blocked, skip,
                            best, scratch, out):  # fmt: skip
     """The nearest node of every body within ``cutoff`` of (x, z) on the ground that stands
@@ -184,7 +184,7 @@ def nearest_obstacle_nodes(pos, body, n, start, entries, cell, x, z, cutoff, ste
     return count
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bodies_within(pos, body, n, start, entries, cell, x, z, radius, seen, out):
     """The bodies having a node within ``radius`` of (x, z) on the ground, into ``out``
     (in the order of their first such node met); returns how many. ``seen`` (a flag per

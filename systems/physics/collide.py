@@ -86,7 +86,7 @@ def _boxes_overlap(lo, hi, i, lo2, hi2, j):
             and lo2[j, 1] <= hi[i, 1] and lo[i, 2] <= hi2[j, 2] and lo2[j, 2] <= hi[i, 2])  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def collider_boxes(pos, flags, col_a, col_b, col_r, col_body, n_col, n_bodies, margin, lo, hi, body_lo,
                    body_hi, body_start, order, still):  # fmt: skip
     """Level zero of the broad phase: every collider's padded box, and each body's.
@@ -126,7 +126,7 @@ def collider_boxes(pos, flags, col_a, col_b, col_r, col_body, n_col, n_bodies, m
     body_start[0] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still):
     """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid; none
     of two ``still`` bodies (all their contact points pinned: no contact of theirs can move
@@ -257,7 +257,7 @@ def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, b
     return n_pairs
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def closest_segment_params(p1, q1, p2, q2):
     """Parameters (s, t) of the closest points of segments p1q1 and p2q2 (Ericson 5.1.9)."""
     d1x = q1[0] - p1[0]
@@ -293,7 +293,7 @@ def closest_segment_params(p1, q1, p2, q2):
     return s, t
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def capsule_gaps(pa, qa, ra, pb, qb, rb):
     """Surface distances (m) between every capsule a (rows of pa, qa, ra) and every capsule
     b (pb, qb, rb), an (a, b) table; < 0 overlaps. The contact solver's closest points, for
@@ -315,7 +315,7 @@ def _felt_weight(inv_mass, flags, i):
     return 0.0 if flags[i] & NODE_LOCKED else inv_mass[i]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
 
@@ -491,7 +491,7 @@ def segment_gap2(pos, a, b, c, d):
     return dist2
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
     """The candidate pairs (first ``n_pairs`` of ``pairs``, in order) whose capsules are
     within ``margin`` of touching. The broad phase's boxes overlap for many more (a capsule's
@@ -510,7 +510,7 @@ def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
     return near, n
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def moved_since(pos, anchor, count, limit):
     """Has any of the first ``count`` nodes moved more than ``limit`` (m) from ``anchor``?"""
     limit2 = limit * limit
@@ -523,7 +523,7 @@ def moved_since(pos, anchor, count, limit):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def still_near(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor):
     """The ``near`` pairs (picked from the candidates ``pairs`` by :func:`near_pairs` where the
     nodes stood at ``anchor``), picked again if any node has moved half the margin since: then
@@ -534,7 +534,7 @@ def still_near(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n
     return near, n_near
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor, record, dt):
     """:func:`resolve_contacts` over the pairs :func:`still_near`: it does exactly what a pass
     over every candidate would. Returns the near pairs it used."""

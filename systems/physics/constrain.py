@@ -264,7 +264,7 @@ def project_link_rows(nodes, links, start, end):
         pos[j, 2] += wj * f * oz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def project_links(nodes, links):
     """One pass over all links (:func:`project_link_rows`)."""
     project_link_rows(nodes, links, 0, links.count)
@@ -274,7 +274,7 @@ def project_links(nodes, links):
 SETTLE_PASSES = 80
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def settle_shape(nodes, links, held, passes):
     """Restore the shape of each thing a hand holds: ``passes`` passes over its own links.
 
@@ -536,7 +536,7 @@ def project_limit_rows(nodes, limits, gripped, start, end):
             nudge(prev, t, -ft * lag, dx, dy, dz)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def project_limits(nodes, limits, gripped):
     """One pass over all hinge limits (:func:`project_limit_rows`)."""
     project_limit_rows(nodes, limits, gripped, 0, limits.count)
@@ -544,7 +544,7 @@ def project_limits(nodes, limits, gripped):
 
 # A call, not inlined: numba analyses a threaded loop's body statement by statement, and with
 # the rows inlined project_by_body took 11.9 s of a first run's 41 s of compiling (now 3.3 s).
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links):
     """Chunk ``q`` of a :class:`BodyPlan`: its link (``of_links``) or limit rows."""
     if of_links:
@@ -553,7 +553,7 @@ def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links):
         project_limit_rows(nodes, limits, gripped, chunks[q, 0], chunks[q, 1])
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links):
     """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
     chunks at once, across threads, the runs one after the other."""
@@ -566,7 +566,7 @@ def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links):
             _project_chunk(nodes, links, limits, gripped, chunks, q, of_links)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def links_pass(c):
     """One pass over every link of the :class:`Constraints` ``c`` (split by body when planned).
     (``bool(True)``, not ``True``: numba compiles a literal as another specialisation.)"""
@@ -578,7 +578,7 @@ def links_pass(c):
         project_links(c.nodes, c.links)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def limits_pass(c):
     """One pass over every joint limit of ``c`` (split by body when planned)."""
     plan = c.plan
@@ -589,7 +589,7 @@ def limits_pass(c):
         project_limits(c.nodes, c.limits, c.gripped)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def project_axles(nodes, axles):
     """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
     pos, flags = nodes.pos, nodes.flags
@@ -610,7 +610,7 @@ def project_axles(nodes, axles):
         pos[i, 2] = pos[a, 2] + hh * az + f * pz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def project_ground(nodes):
     """Ground plane y = 0: no node sinks below its radius; mark contacts, lock on contact."""
     pos, radius, flags, lock_pos = nodes.pos, nodes.radius, nodes.flags, nodes.lock_pos
@@ -630,7 +630,7 @@ def project_ground(nodes):
             flags[i] = f
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lift_out_of_ground(nodes):
     """Every free node more than GROUND_SLOP in the ground up onto it: the last word of a step
     (the collide system's; the passes after the last ground pass may push nodes in).
@@ -646,7 +646,7 @@ def lift_out_of_ground(nodes):
             prev[i, 1] = max(prev[i, 1], r)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def relax_once(c):
     """One relaxation pass over the :class:`Constraints` ``c``: limits, axles, the ground, then
     links (and grab joints)."""
@@ -657,7 +657,7 @@ def relax_once(c):
     links_pass(c)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def named_constraints(args) -> Constraints:
     """The :class:`Constraints` of :func:`constraints_of`'s plain tuples."""
     return Constraints(
@@ -670,7 +670,7 @@ def named_constraints(args) -> Constraints:
     )
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def solve_constraints(iterations, args):
     """Gauss-Seidel relaxation of every constraint (``args``: :func:`constraints_of`), ``iterations``
     times."""
@@ -679,7 +679,7 @@ def solve_constraints(iterations, args):
         relax_once(c)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def ease_grabs(flags, rest, min_rest, count, step):
     """Move each grab joint's length towards its standoff (``min_rest``) by at most ``step`` m,
     from either side: a hand that took hold nearer than its standoff (inside a doll it

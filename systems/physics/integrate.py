@@ -39,7 +39,7 @@ class IntegrateColumns(NamedTuple):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def integrate_nodes(args, count, gravity, dt, max_speed):
     """One Verlet step for every node, in place (``args``: ``store.columns(IntegrateColumns, nodes)``)."""
     cols = IntegrateColumns(*args)

@@ -19,7 +19,7 @@ from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def feel_impacts(
     hit_energy, hit_by, col_body, n_col, pain, pain_threshold, pain_half_life, pain_gain, n_bodies, dt, gentle
 ):
