@@ -295,13 +295,45 @@ def _wall_table(walls: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return bodies, start, links
 
 
+#: Gathering: a stalled walker ends "done" when another character stands still this near it
+#: (m at 1.75 m tall, plus 0.3 m), nearer the target by at least SETTLE_AHEAD - it is as
+#: close as the others allow. Still: its pelvis slower than SETTLE_STILL.
+SETTLE_NEAR = 1.5
+SETTLE_AHEAD = 0.1
+SETTLE_STILL = 0.3  # m/s
+
+
+def _where(character, goal: Goal) -> np.ndarray:
+    """The point an approach goal walks to, now."""
+    return target_point(character, goal.params["target"])
+
+
+def crowded_out(character, where: np.ndarray) -> bool:
+    """Do others stand still between ``character`` and the point ``where``, nearer it: is it
+    as close as they allow? (Ten walkers to one point: the outer ones stall behind the inner.)"""
+    scene = character.scene
+    state = scene.state
+    ch = state.characters
+    pelvis = ch.nodes[: ch.count, PELVIS]
+    pos, prev = state.nodes.pos[pelvis], state.nodes.prev[pelvis]
+    here = character.position
+    near_me = np.hypot(pos[:, 0] - here[0], pos[:, 2] - here[2]) < SETTLE_NEAR * character.scale + 0.3
+    mine = ground_distance(here, where)
+    nearer = np.hypot(pos[:, 0] - where[0], pos[:, 2] - where[2]) < mine - SETTLE_AHEAD
+    still = np.hypot(pos[:, 0] - prev[:, 0], pos[:, 2] - prev[:, 2]) < SETTLE_STILL * scene.dt
+    others = np.arange(ch.count) != character.character_row
+    return bool(np.any(near_me & nearer & still & others))
+
+
 def steer_to(character, goal: Goal, target, stop_distance: float, direction=None, curl: bool = True,
              exclude: tuple[str, ...] = (), speed: float | None = None,
-             squeeze: bool = False) -> bool:  # fmt: skip
+             squeeze: bool = False, settle: bool = False) -> bool:  # fmt: skip
     """Walk towards ``target`` until within ``stop_distance``; True once there.
 
     ``speed`` (m/s) overrides the steering's usual walking pace. ``squeeze``: after
     ``SQUEEZE_AFTER`` s without headway, squeeze past obstacles (see ``SQUEEZE``).
+    ``settle``: a stall behind others standing nearer the target is arrival, not a failure
+    (:func:`crowded_out`).
 
     Fails the goal when it stalls. ``direction`` (a ground vector) makes it arrive from
     that side of the target; by default it comes from where it is.
@@ -324,6 +356,8 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         memory["best"], memory["best_at"] = distance, scene.time
     elif scene.time - memory.setdefault("best_at", scene.time) > STALL_TIME:
         character.stop()
+        if settle and crowded_out(character, where):
+            return True
         character.scene.end_goal(character, goal, False, f"stuck {distance:.2f} m from the target")
         return False
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
@@ -403,7 +437,7 @@ class Approach(Behavior):
             character.pose(p["arms"])
         elif p["arms"] == "reach" and isinstance(target, str):
             character.reach(target, hand="both")
-        if steer_to(character, goal, target, p["stop_distance"], p["direction"], p["curl"]):
+        if steer_to(character, goal, target, p["stop_distance"], p["direction"], p["curl"], settle=True):
             self.finish(character, goal)
 
     def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
@@ -572,6 +606,8 @@ class Approach(Behavior):
                 status = a["status"][k]
                 if status == ARRIVED:
                     self.finish(character, goal)
+                elif status == STUCK and crowded_out(character, _where(character, goal)):
+                    self.finish(character, goal)  # as close as the others allow: gathered round it
                 elif status == STUCK:
                     self.finish(character, goal, False, f"stuck {a['distance'][k]:.2f} m from the target")
                 elif status == SAT:
