@@ -312,8 +312,21 @@ def _body_outside(scene) -> None:
         ),
         (lambda s: s.state.released.append([0, 10**6, 3]), "released holds a row outside"),
         (_body_outside, "body points outside the store"),
+        # found by the snapshot fuzzer: a scene without its behaviours stepped into an AttributeError
+        (lambda s: delattr(s, "behaviors"), "its scene has no 'behaviors'"),
+        (lambda s: setattr(s, "goals", {}), "its scene's 'goals' is a dict, not a GoalBook"),
     ],
-    ids=["link-node", "character-node", "pair-count", "node-count", "dtype", "released", "body-rows"],
+    ids=[
+        "link-node",
+        "character-node",
+        "pair-count",
+        "node-count",
+        "dtype",
+        "released",
+        "body-rows",
+        "no-behaviours",
+        "goals-swapped",
+    ],  # fmt: skip
 )
 def test_a_snapshot_whose_rows_point_outside_the_store_is_refused(scenes, change, says):
     scene = Scene.load("playground")

@@ -97,13 +97,15 @@ def builtin_behaviors() -> tuple[type[Behavior], ...]:
 
 
 def motives() -> tuple[type[Behavior], ...]:
-    """The schoolyard's motives: behaviours a character *has* (a component says how strongly)."""
-    return tuple(b for b in builtin_behaviors() if b.component is not None)
+    """The schoolyard's motives: behaviours a character *has* (a component says how strongly),
+    reflexes apart."""
+    return tuple(b for b in builtin_behaviors() if b.component is not None and not b.reflex)
 
 
 def goal_behaviors() -> tuple[type[Behavior], ...]:
-    """The goal behaviours (what a character is told to do), their answers and the pain reflex."""
-    return tuple(b for b in builtin_behaviors() if b.component is None)
+    """The goal behaviours (what a character is told to do), their answers and the reflexes
+    (the pain withdrawal; a hug's step back, whose component is only where it steps from)."""
+    return tuple(b for b in builtin_behaviors() if b.component is None or b.reflex)
 
 
 class _BuiltinBehaviours(Plugin):

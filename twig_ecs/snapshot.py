@@ -33,6 +33,7 @@ objects - are kept; the rest are listed in the meta as ``dropped``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib
 import importlib.util
@@ -270,6 +271,7 @@ def restore(data: bytes):
         raise SnapshotError("snapshot corrupt: it does not hold a scene")
     scene._reopen()  # noqa: SLF001 - the snapshot is the scene's own serialiser
     try:
+        _check_scene_parts(scene)
         check_store(scene.state)
         check_world(scene.world)
         _check_components(scene.world, scene.state)
@@ -287,6 +289,28 @@ def restore(data: bytes):
         scene.close()
         raise SnapshotError("snapshot corrupt: the restored positions do not match its state hash")
     return scene
+
+
+@functools.cache
+def _scene_parts(scene_class: type) -> dict[str, type]:
+    """What a new empty scene of ``scene_class`` holds: attribute name -> the type of its value
+    (None-valued ones - set later, or optional - left out)."""
+    fresh = scene_class(plugins=[])
+    try:
+        return {name: type(value) for name, value in vars(fresh).items() if value is not None}
+    finally:
+        fresh.close()
+
+
+def _check_scene_parts(scene) -> None:
+    """A decoded scene has every part a scene has, each of its kind (ValueError naming the
+    first that is not): a file that drops or swaps one must not fail later, mid-step."""
+    held = vars(scene)
+    for name, kind in _scene_parts(type(scene)).items():
+        if name not in held:
+            raise ValueError(f"its scene has no '{name}'")
+        if not isinstance(held[name], kind):
+            raise ValueError(f"its scene's '{name}' is a {type(held[name]).__name__}, not a {kind.__name__}")
 
 
 def _check_components(world: World, state) -> None:
