@@ -15,6 +15,9 @@ from twig_ecs.torso import TorsoRecorder
 #: chaotic story amplifies the last bit, so a few frames' slack: before the righting reflex seeds
 #: 0-7 had 79 frames (66 degrees at most), session 7's main 10 and 61 frames on seed 0 alone
 FOLD_FRAMES = 5
+#: The parent's largest torso pitch in five minutes of the yard (degrees): a stoop to hug the small
+#: child (15-19 on seeds 0-3 since the hug aims at the partner's height), never a fold.
+PARENT_STOOP = 25.0
 MOST_PITCH = 40.0
 
 
@@ -231,7 +234,9 @@ def test_the_torso_figures_count_a_fall_but_not_a_fold_right_after_a_blow(scenes
 def test_five_minutes_in_the_schoolyard_keep_everyone_upright(yard_five_minutes):
     torso = yard_five_minutes.report["torso"]["characters"]
     assert set(torso) == {"parent", "big_child", "small_child"}
-    assert torso["parent"]["max_deg"] <= 10.0, torso["parent"]
+    # the parent stoops to hug the 1.05 m child since session 15 (its arms aim at the child's
+    # height: 15-19 deg at the hold); it never folds (nothing beyond 35 deg)
+    assert torso["parent"]["max_deg"] <= PARENT_STOOP and torso["parent"]["frames_over"] == 0, torso["parent"]
     # before (main bf67a60): 79 deg and 83 frames beyond 35 - it fell twice after a ride,
     # stepping on the deck's rim; and it folded over in a squat run round that rim
     # session 7's main (45de1e8): small child 44 deg and 10 frames beyond 35; big child 77 deg and
@@ -260,7 +265,8 @@ def test_five_minutes_in_the_schoolyard_keep_everyone_upright_on_other_seeds(sce
         scene.step()
         torso.step()
     figures = torso.report()["characters"]
-    assert figures["parent"]["max_deg"] <= 10.0, figures["parent"]
+    parent = figures["parent"]
+    assert parent["max_deg"] <= PARENT_STOOP and parent["frames_over"] == 0, parent
     for child in ("small_child", "big_child"):
         assert figures[child]["frames_over"] <= FOLD_FRAMES and figures[child]["max_deg"] <= MOST_PITCH, (
             child,
