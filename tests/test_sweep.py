@@ -133,3 +133,20 @@ def test_the_same_sweep_on_a_local_dask_cluster_gives_the_same_table():
 def test_an_unreachable_cluster_is_one_clear_error():
     with pytest.raises(TwigError, match="cannot reach a Dask scheduler at tcp://127.0.0.1:9"):
         run_cluster("tcp://127.0.0.1:9", "schoolyard", 1.0, plan_runs([0], {}), connect_timeout=1.0)
+
+
+def test_the_plot_draws_the_share_of_runs_with_a_figure_above_zero_by_value(tmp_path):
+    from PIL import Image
+
+    from twig_ecs.sweepplot import chance_by_value, plot_chance
+
+    runs = [(2, 1), (2, 0), (4, 0), (4, 0)]  # (value, hugs)
+    rows = [{"run": k, "v": v, "hugs": h, "error": ""} for k, (v, h) in enumerate(runs)]
+    rows.append({"run": 4, "v": 4, "hugs": "", "error": "refused"})  # a failed run is left out
+    assert chance_by_value(rows, "v", "hugs") == [("2", 0.5, 0.5, 2), ("4", 0.0, 0.0, 2)]
+    with Image.open(plot_chance(rows, "v", "hugs", tmp_path / "chance.png")) as image:
+        assert image.size == (900, 500)
+        # the first bar (half way up) is drawn in its blue; the second (none) is not
+        assert image.getpixel((int(70 + 830 * 0.5 / 2), 440 - 100)) == (90, 140, 200)
+    with pytest.raises(TwigError, match="no finished run reported 'kicks'"):
+        plot_chance(rows, "v", "kicks", tmp_path / "none.png")

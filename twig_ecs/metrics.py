@@ -150,16 +150,11 @@ class StoryRecorder:
 
     def plot(self, path: str | Path, size: tuple[int, int] = (1200, 500)) -> None:
         """Distance to the caregiver and anxiety over time, with behaviour bands, as a PNG."""
-        from PIL import Image, ImageDraw, ImageFont
+        from twig_ecs.chart import canvas
 
         rows = [r for r in (self.trace or []) if not math.isnan(r["anxiety"])]
         width, height = size
-        image = Image.new("RGB", size, (250, 250, 247))
-        draw = ImageDraw.Draw(image)
-        try:
-            title_font, label_font = ImageFont.load_default(size=18), ImageFont.load_default(size=13)
-        except TypeError:  # Pillow < 10.1: one small bitmap font
-            title_font = label_font = ImageFont.load_default()
+        image, draw, title_font, label_font = canvas(size)
         # room for the title above, distance ticks left, anxiety ticks and the legend right
         left, right, top, bottom = 70, width - 190, 56, height - 50
         draw.rectangle((left, top, right, bottom), outline=(120, 120, 120))

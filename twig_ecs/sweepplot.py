@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+from twig_ecs.chart import canvas
 from twig_ecs.errors import TwigError
 
 
@@ -25,18 +26,11 @@ def chance_by_value(rows: Sequence[dict], name: str, metric: str) -> list[tuple[
 def plot_chance(rows: Sequence[dict], name: str, metric: str, path: str | Path,
                 size: tuple[int, int] = (900, 500)) -> Path:  # fmt: skip
     """Bars of :func:`chance_by_value` as a PNG at ``path``."""
-    from PIL import Image, ImageDraw, ImageFont
-
     bars = chance_by_value(rows, name, metric)
     if not bars:
         raise TwigError(f"no finished run reported '{metric}': nothing to plot")
     width, height = size
-    image = Image.new("RGB", size, (250, 250, 247))
-    draw = ImageDraw.Draw(image)
-    try:
-        title_font, font = ImageFont.load_default(size=18), ImageFont.load_default(size=13)
-    except TypeError:  # Pillow < 10.1: one small bitmap font
-        title_font = font = ImageFont.load_default()
+    image, draw, title_font, font = canvas(size)
     left, right, top, bottom = 70, width - 30, 60, height - 60
     draw.text((left, 18), f"share of runs with {metric} > 0, by {name}", fill=(0, 0, 0), font=title_font)
     draw.rectangle((left, top, right, bottom), outline=(120, 120, 120))
