@@ -150,3 +150,26 @@ def test_the_plot_draws_the_share_of_runs_with_a_figure_above_zero_by_value(tmp_
         assert image.getpixel((int(70 + 830 * 0.5 / 2), 440 - 100)) == (90, 140, 200)
     with pytest.raises(TwigError, match="no finished run reported 'kicks'"):
         plot_chance(rows, "v", "kicks", tmp_path / "none.png")
+
+
+@pytest.mark.slow  # a sweep in a fresh process, stopped by Ctrl-C after its first row
+def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
+    import subprocess
+    import sys
+
+    table = tmp_path / "table.csv"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
+    sweep = subprocess.Popen([sys.executable, "-m", "twig_ecs", "sweep", "schoolyard", "--seeds", "0-9",
+                              "--seconds", "20", "-o", str(table)], stdout=subprocess.PIPE,
+                             stderr=subprocess.STDOUT, text=True, env=env)  # fmt: skip
+    said = []
+    for line in sweep.stdout:  # the progress: stop it once a run is in
+        said.append(line)
+        if line.startswith("sweep: 1/10"):
+            sweep.send_signal(signal.SIGINT)
+            break
+    said += sweep.stdout.readlines()
+    assert sweep.wait(timeout=60) == 130, said
+    kept = list(csv.DictReader(table.open()))
+    assert 1 <= len(kept) < 10 and all(row["error"] == "" and row["state_hash"] for row in kept)
+    assert f"{len(kept)} of 10 runs in {table} (stopped: the finished runs are kept)" in "".join(said)
