@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from twig_ecs.character import ARM_POSES, HANDS
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
-from twig_ecs.kernelmath import GAZE_AHEAD, GAZE_POINT, L_HIP, PELVIS, R_HIP, SIT
+from twig_ecs.kernelmath import ARM_MODES, GAZE_AHEAD, GAZE_POINT, L_HIP, PELVIS, R_HIP, SIT, WAVE
 
 
 class Crowd:
@@ -121,3 +122,24 @@ class Crowd:
     def look_ahead(self) -> None:
         """Look where each goes."""
         self.scene.state.characters.gaze_mode[self.rows] = GAZE_AHEAD
+
+    def pose(self, name: str, hands: str | Sequence[str] = "both") -> None:
+        """Hold arms in a pose (``hang``, ``grapple``, ``hug``, ``carry``): ``hands`` is
+        "left", "right" or "both" for all of them, or one of those for each."""
+        if name not in ARM_POSES:
+            raise TwigError(f"unknown arm pose '{name}' (one of {', '.join(ARM_POSES)})")
+        self._set_arms(ARM_MODES[name], hands)
+
+    def wave(self, hands: str | Sequence[str] = "right") -> None:
+        """Wave (``hands`` as for :meth:`pose`)."""
+        self._set_arms(WAVE, hands)
+
+    def _set_arms(self, mode: int, hands: str | Sequence[str]) -> None:
+        which = np.array([hands] * len(self) if isinstance(hands, str) else list(hands), dtype=object)
+        if len(which) != len(self) or not set(which.tolist()) <= set(HANDS):
+            raise TwigError(f"hands: give 'left', 'right' or 'both', for all or for each of {len(self)}")
+        arm_mode = self.scene.state.characters.arm_mode
+        for side, columns in HANDS.items():
+            rows = self.rows[which == side]
+            for column in columns:
+                arm_mode[rows, column] = mode

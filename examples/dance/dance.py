@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twig_ecs.behavior import Behavior
+from twig_ecs.behavior import Behavior, Mind
 
 
 @dataclass(slots=True)
@@ -66,3 +66,35 @@ class Dance(Behavior):
         self.world.remove_component(character.entity, DanceFloor)
         character.stop()
         character.gesture(None, hand="both")
+
+
+class CrowdDance(Behavior):
+    """The same dance written over arrays (docs/authoring-behaviours.md, "A behaviour over
+    arrays"): `propose_crowd` and `act_crowd` instead of `activation` and `act`, a few numpy
+    calls a step for a whole floor; `start` and `stop` stay per character (they run only
+    when one starts or stops). Its dancers move as those of :class:`Dance` do."""
+
+    name = "crowd_dance"
+    component = DanceMood
+    start = Dance.start
+    stop = Dance.stop
+
+    def propose_crowd(self, crowd) -> np.ndarray:
+        """As joyful as each one's mood, unless it has something to do."""
+        busy = np.array([bool(self.world.component_for_entity(e, Mind).goals) for e in crowd.entities])
+        return np.where(busy, 0.0, crowd.settings("joy"))
+
+    def act_crowd(self, crowd) -> None:
+        """Step left and right round each one's spot, waving one arm and then the other."""
+        tempo, sway = crowd.settings("tempo"), crowd.settings("sway")
+        phase = 2 * np.pi * tempo * self.scene.time
+        here = crowd.positions
+        side = crowd.facing[:, [2, 0]] * [1, -1]  # each one's left, on the ground
+        drift = np.array([self.world.component_for_entity(e, DanceFloor).at for e in crowd.entities]) - here
+        swing = np.sin(phase)
+        vx = side[:, 0] * sway * swing + 0.5 * drift[:, 0]
+        vz = side[:, 1] * sway * swing + 0.5 * drift[:, 2]
+        crowd.walk(np.stack([vx, np.zeros(len(crowd)), vz], axis=1))
+        left_up = swing > 0
+        crowd.wave(np.where(left_up, "left", "right"))
+        crowd.pose("hang", np.where(left_up, "right", "left"))

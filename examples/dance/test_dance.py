@@ -59,3 +59,22 @@ def test_a_misspelled_plug_in_is_reported_with_file_and_line(tmp_path):
         SceneError, match=r"bad.yaml:5: entities\[0\].behaviors\[0\].use: unknown behaviour 'danse'"
     ):
         Scene.load(scene, trust=True)
+
+
+def test_the_dance_over_arrays_moves_a_floor_as_the_dance_per_character_does(tmp_path):
+    # the same floor twice: twelve dancers under CrowdDance (crowd.yaml), and the same file
+    # with the per-character Dance put in its place
+    crowd = (HERE / "crowd.yaml").read_text()
+    one_by_one = tmp_path / "one_by_one.yaml"
+    per_character = crowd.replace("dance.py:CrowdDance", "dance.py:Dance").replace("crowd_dance", "dance")
+    one_by_one.write_text(per_character)
+    shutil.copy(HERE / "dance.py", tmp_path)
+    with Scene.load(HERE / "crowd.yaml", trust=True) as arrays, Scene.load(one_by_one, trust=True) as each:
+        start = arrays.state.nodes.pos[: arrays.state.nodes.count].copy()
+        arrays.run(3.0)
+        each.run(3.0)
+        a = arrays.state.nodes.pos[: arrays.state.nodes.count]
+        b = each.state.nodes.pos[: each.state.nodes.count]
+        assert {arrays.entity(f"dancer{k}").behaviour for k in range(12)} == {"crowd_dance"}
+        assert np.abs(a - start).max() > 0.1, "they dance"
+        assert np.abs(a - b).max() < 1e-6  # numpy's sin and norms against math's: the last bits
