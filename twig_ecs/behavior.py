@@ -119,30 +119,28 @@ class Behavior(System):
         if type(self).propose_crowd is not Behavior.propose_crowd:
             self._propose_over_arrays(ctx)
             return
+        for entity, mind, goal in self._proposers():
+            value = self.activation(scene.character_handle(entity), mind, goal)
+            if value > 0.0:
+                mind.activations[name] = value
+
+    def _proposers(self):
+        """(entity, mind, goal) of each character this behaviour may propose for now: a
+        goal-driven one's with its goal current (and that goal), others' (goal None) but a
+        scripted character's, which does only what it is told (reflexes apart)."""
+        name = self.name
         for entity, mind in self.candidates():
             if not (self.goal_driven or self.reflex or mind.autonomous):
-                continue  # a scripted character does only what it is told
-            goal = mind.goal
-            if self.goal_driven:
-                if goal is None or goal.behavior != name:
-                    continue
-                value = self.activation(scene.character_handle(entity), mind, goal)
-            else:
-                value = self.activation(scene.character_handle(entity), mind, None)
-            if value > 0.0:
-                mind.activations[self.name] = value
+                continue
+            goal = mind.goal if self.goal_driven else None
+            if self.goal_driven and (goal is None or goal.behavior != name):
+                continue
+            yield entity, mind, goal
 
     def _propose_over_arrays(self, ctx: StepContext) -> None:
         """:meth:`run` for a behaviour that defines :meth:`propose_crowd`: one call for all."""
         name = self.name
-        picked = []
-        for entity, mind in self.candidates():
-            goal = mind.goal
-            if self.goal_driven and (goal is None or goal.behavior != name):
-                continue
-            if not (self.goal_driven or self.reflex or mind.autonomous):
-                continue  # a scripted character does only what it is told
-            picked.append((entity, mind, goal if self.goal_driven else None))
+        picked = list(self._proposers())
         if not picked:
             return
         world = self.world

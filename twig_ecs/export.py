@@ -151,9 +151,23 @@ def export_replay(path: str | Path, out: str | Path, fps: int = 30, character: s
     recorder = box["recorder"]
     recorded = time.perf_counter()
     files = write(recorder, out, character)
-    return {"scene": result["scene"], "frames": recorder.frame_count, "fps": fps,
-            "figures": recorder.figures(), "files": [str(f) for f in files], "load_s": box["ready"] - started,
-            "record_s": recorded - box["ready"], "write_s": time.perf_counter() - recorded}  # fmt: skip
+    return _report(result["scene"], recorder, files, (started, box["ready"], recorded, time.perf_counter()))
+
+
+def _report(scene: str, recorder: MotionRecorder, files: list[Path], times: tuple[float, ...]) -> dict:
+    """What an export did: the scene, frames, figures and files, and its timings from
+    ``times`` (started, ready to record, recorded, written: perf_counter seconds)."""
+    started, ready, recorded, done = times
+    return {
+        "scene": scene,
+        "frames": recorder.frame_count,
+        "fps": recorder.fps,
+        "figures": recorder.figures(),
+        "files": [str(f) for f in files],
+        "load_s": ready - started,
+        "record_s": recorded - ready,
+        "write_s": done - recorded,
+    }
 
 
 def _open(source: str, seed: int, content, parameters: dict):
@@ -193,16 +207,7 @@ def export_motion(
         done = time.perf_counter()
     finally:
         scene.close()
-    return {
-        "scene": scene.name,
-        "frames": recorder.frame_count,
-        "fps": fps,
-        "figures": recorder.figures(),
-        "files": [str(f) for f in files],
-        "load_s": ready - started,
-        "record_s": recorded - ready,
-        "write_s": done - recorded,
-    }
+    return _report(scene.name, recorder, files, (started, ready, recorded, done))
 
 
 def cmd_export(args: argparse.Namespace) -> int:

@@ -87,23 +87,21 @@ def flatten(report: dict, prefix: str = "") -> Iterator[tuple[str, Any]]:
             yield name, value
 
 
-def error_row(run: SweepRun, message: str) -> dict[str, Any]:
-    """The row of a run that failed."""
-    return {"run": run.index, "seed": run.seed, **run.values, "error": message}
+def row_of(run: SweepRun, error: str = "") -> dict[str, Any]:
+    """A run's row before its figures: its index, seed and values, and its error (empty when
+    it ran)."""
+    return {"run": run.index, "seed": run.seed, **run.values, "error": error}
 
 
 def run_one(scene: str, seconds: float, content: Sequence[str], run: SweepRun) -> dict[str, Any]:
     """One run as a row (in whichever process calls it): its figures, or its error."""
     from twig_ecs.report import run_with_report
 
-    row: dict[str, Any] = {"run": run.index, "seed": run.seed, **run.values, "error": ""}
     try:
         report = run_with_report(scene, seconds, seed=run.seed, content=list(content), parameters=run.values)
     except TwigError as exc:
-        row["error"] = str(exc)
-        return row
-    row.update(flatten(report))
-    return row
+        return row_of(run, str(exc))
+    return row_of(run) | dict(flatten(report))
 
 
 # -- local workers ---------------------------------------------------------------------------------
@@ -131,7 +129,7 @@ def serve(job: dict) -> None:
         try:
             row = run_one(scene, seconds, content, run)
         except Exception as exc:  # noqa: BLE001 - any failure of a run is its row, never a lost sweep
-            row = error_row(run, f"{type(exc).__name__}: {exc}")
+            row = row_of(run, f"{type(exc).__name__}: {exc}")
         answers.write(json.dumps(row) + "\n")
         answers.flush()
 
@@ -218,7 +216,7 @@ def run_local(scene: str, seconds: float, runs: Sequence[SweepRun], content: Seq
                     continue
                 tries[run.index] = tries.get(run.index, 0) + 1  # it died with this run in hand
                 if tries[run.index] > retries:
-                    done(error_row(run, f"its worker died {tries[run.index]} times ({worker.death()})"))
+                    done(row_of(run, f"its worker died {tries[run.index]} times ({worker.death()})"))
                 else:
                     todo.append(run)
                 worker.stop()
@@ -280,7 +278,7 @@ def run_cluster(address: str, scene: str, seconds: float, runs: Sequence[SweepRu
                 try:
                     row = future.result()
                 except Exception as exc:  # noqa: BLE001 - a run's failure is its row (KilledWorker too)
-                    row = error_row(run, f"{type(exc).__name__}: {exc}")
+                    row = row_of(run, f"{type(exc).__name__}: {exc}")
                 rows[run.index] = row
                 if on_row is not None:
                     on_row(row)
@@ -298,7 +296,7 @@ def columns(rows: Sequence[dict], names: Sequence[str] = ()) -> list[str]:
     figures: dict[str, None] = {}
     for row in rows:
         figures.update(dict.fromkeys(k for k in row if k not in LEAD and k not in names))
-    return [LEAD[0], LEAD[1], *names, *[c for c in LEAD[2:]], *figures]
+    return [LEAD[0], LEAD[1], *names, *LEAD[2:], *figures]
 
 
 def write_table(rows: Sequence[dict], path: str | Path, swept: Sequence[str] = (),
