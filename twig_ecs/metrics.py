@@ -4,8 +4,9 @@
 ball touches, look-backs, fights, withdrawals, distance from the caregiver, what each
 hand holds, the peak angular speed of anything that turns on an axle, and the contact
 figures of :mod:`twig_ecs.interactions` (kicks, pushes, hugs, carried things) and the
-torso figures of :mod:`twig_ecs.torso` (no fold beyond 35 degrees but right after a blow). It can also
-write a per-step CSV trace and draw distance and anxiety over time with behaviour bands.
+torso figures of :mod:`twig_ecs.torso` (no fold beyond 35 degrees but right after a blow) and
+the rises of :mod:`twig_ecs.rises` (getting up takes a person's time). It can also write a
+per-step CSV trace and draw distance and anxiety over time with behaviour bands.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 
 from twig_ecs.components import Attachment, Character, Memory
 from twig_ecs.interactions import InteractionRecorder
+from twig_ecs.rises import RiseRecorder
 from twig_ecs.scene import Scene
 from twig_ecs.steering import ground_distance
 from twig_ecs.systems.behaviours.fight import Feisty
@@ -51,6 +53,7 @@ class StoryRecorder:
         self.axles = [name for name in scene.entity_names if self._is_axled(name)]
         self.interactions = InteractionRecorder(scene)
         self.torso = TorsoRecorder(scene)
+        self.rises = RiseRecorder(scene)
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
@@ -93,6 +96,7 @@ class StoryRecorder:
             self.peak_spin = max(self.peak_spin, self._spin(name))
         self.interactions.step()
         self.torso.step()
+        self.rises.step()
 
     def _spin(self, name: str) -> float:
         """Angular speed (rad/s) of an axled body about its axle, from one free node."""
@@ -139,6 +143,7 @@ class StoryRecorder:
             "merry_go_round_peak_rad_s": round(self.peak_spin, 3),
             "interactions": self.interactions.report(),
             "torso": self.torso.report(),
+            "rises": self.rises.report(),
         }
 
     def write_trace(self, path: str | Path) -> None:
