@@ -292,9 +292,9 @@ def control_posture(args, n_chars, gravity, dt):
 
         # -- upright: shoulder centre over the pelvis (over the feet when rising)
         n = nd[NECK]
-        if mode[c] == RISE:
+        if mode[c] == RISE and not from_ground:
             tx, tz = feet_x, feet_z
-        else:
+        else:  # (getting up from the ground: upright over the pelvis - the feet may be far yet)
             # into the walk by as much for every body size at the same Froude number
             tx = LEAN * scale[c] * wx + lean[c, 0]
             tz = LEAN * scale[c] * wz + lean[c, 2]
