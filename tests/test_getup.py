@@ -6,8 +6,11 @@ height back above 90%; ``twig run --report json`` carries it as ``rises``.
 
 from __future__ import annotations
 
+import numpy as np
+import pytest
+
 from twig_ecs import Scene
-from twig_ecs.rises import DOWN, UP, RiseRecorder
+from twig_ecs.rises import DOWN, SHORTEST, UP, RiseRecorder
 
 
 def test_the_rise_figures_time_a_fall_and_the_getting_up_after_it(scenes):
@@ -32,3 +35,66 @@ def test_the_rise_figures_time_a_fall_and_the_getting_up_after_it(scenes):
     (rise,) = figures["fallen"]["rises"]
     assert 1.9 <= rise["at_s"] <= 2.0 + 4.0 and rise["lowest"] < 0.25 and rise["seconds"] > 0.0
     assert figures["fallen"]["quickest_s"] == rise["seconds"]
+
+
+def _rise_of(scene, person, rises, seconds):
+    """Step ``seconds``, returning per step the pelvis share of standing height, whether a foot
+    is planted, the smaller gap (m) from a hand to its thigh and the lower knee's height (m)."""
+    track = []
+    for _ in range(int(round(seconds / scene.dt))):
+        scene.step()
+        rises.step()
+        share = float(person.position[1]) / person.stand_height
+        planted = person.is_locked("l_foot") or person.is_locked("r_foot")
+        gaps = [
+            float(
+                np.linalg.norm(
+                    person.node(f"{s}_hand")
+                    - (0.6 * person.node(f"{s}_hip") + 0.4 * person.node(f"{s}_knee"))
+                )
+            )
+            for s in "lr"
+        ]
+        knee = min(float(person.node(f"{s}_knee")[1]) for s in "lr")
+        track.append((share, planted, min(gaps), knee))
+    return track
+
+
+@pytest.mark.parametrize("height", [1.75, 1.05])
+def test_a_ragdoll_told_to_stand_gets_up_through_a_kneel_not_a_pop(scenes, height):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", character=True, height=height)
+    rises = RiseRecorder(scene)
+    person.go_limp()
+    scene.run(2.0)
+    person.stand()
+    track = _rise_of(scene, person, rises, 4.0)
+    (rise,) = rises.report()["characters"]["p"]["rises"]
+    # before: 0.25 s from flat on the ground to standing (a puppet snapped up)
+    assert rise["seconds"] >= SHORTEST, rise
+    kneeling = [(planted, gap, knee) for share, planted, gap, knee in track if 0.45 <= share <= 0.65]
+    assert len(kneeling) * scene.dt >= 0.25, "it pauses in a kneel on the way up"
+    assert any(planted for planted, _, _ in kneeling), "a foot planted under it"
+    assert min(knee for _, _, knee in kneeling) < 0.25 * person.stand_height, "a knee on the ground"
+    assert min(gap for _, gap, _ in kneeling) < 0.12 * person.scale, "a hand pushing on a thigh"
+    assert person.posture == "stand" and track[-1][0] > UP and person.torso_pitch < 15.0
+
+
+def test_a_character_held_down_gets_up_only_once_let_go_and_still_takes_its_time(scenes):
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    person = scene.spawn("humanoid", name="p", character=True)
+    rises = RiseRecorder(scene)
+    scene.run(0.5)
+    for _ in range(60):  # pressed to the ground for a second (someone on top of it)
+        for node in ("pelvis", "neck", "l_shoulder", "r_shoulder"):
+            person.apply_force(node, (0.0, -1500.0, 0.0))
+        scene.step()
+        rises.step()
+    let_go = scene.time
+    assert person.position[1] < DOWN * person.stand_height
+    _rise_of(scene, person, rises, 3.0)
+    (rise,) = rises.report()["characters"]["p"]["rises"]
+    # before: the rise's clock ran while it was held down, and it shot up in 0.6 s once let go
+    assert rise["at_s"] >= let_go - 0.1 and rise["seconds"] >= SHORTEST, rise

@@ -329,14 +329,16 @@ class CharacterHandle(BodyHandle):
         ch.mode_time[row] = 0.0
 
     def stand(self) -> None:
-        """Stand up (from sitting: lean over the feet, then rise; from limp: at once)."""
+        """Stand up (from sitting: lean over the feet, then rise; from limp: from where the body
+        lies - through a kneel if it is on the ground)."""
         ch, row = self._chars(), self.character_row
         if ch.mode[row] == SIT:
             ch.seat[row] = self.scene.state.nodes.pos[self._role("pelvis")]
             ch.mode[row] = RISE
         elif ch.mode[row] == LIMP:
             _set_braces(self.scene, self.body, on=False)
-            ch.mode[row] = STAND
+            ch.seat[row] = self.scene.state.nodes.pos[self._role("pelvis")]
+            ch.mode[row] = RISE
         ch.mode_time[row] = 0.0
 
     def go_limp(self) -> None:

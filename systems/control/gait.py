@@ -34,6 +34,7 @@ from twig_ecs.kernelmath import (
     L_KNEE,
     PELVIS,
     R_HAND,
+    RISE,
     STAND,
     clamp,
     forward_xz,
@@ -61,6 +62,7 @@ STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip ste
 STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
+DOWN = 0.4  # of standing height: a pelvis below it is down on the ground (it gets up: posture.py)
 WALK_HEIGHT = 0.975  # of a planted leg's length: how far its hip rides from its foot at a walk
 GUIDE_REACH = 0.99  # of the leg's length: a swinging foot stays (and lands) this near its hip
 GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (only kept in reach)
@@ -101,6 +103,8 @@ class GaitColumns(NamedTuple):
     arm_mode: np.ndarray
     scale: np.ndarray
     leg_length: np.ndarray
+    seat: np.ndarray
+    stand_height: np.ndarray
 
 
 @njit(cache=True, inline="always")
@@ -272,7 +276,9 @@ def control_gait(args, n_chars, gravity, dt):
         nd = nodes[c]
         for f in range(2):
             swing[c, f] = max(0.0, swing[c, f] - dt)
-        if mode[c] != STAND or flags[nd[PELVIS]] & NODE_LOCKED or g < 1e-6:
+        # getting up from the ground (posture.py): the feet step in under the body as it rises
+        from_ground = mode[c] == RISE and cols.seat[c, 1] < DOWN * cols.stand_height[c]
+        if (mode[c] != STAND and not from_ground) or flags[nd[PELVIS]] & NODE_LOCKED or g < 1e-6:
             continue  # sitting, limp or frozen (a locked pelvis): no stepping
         legs = leg_length[c]
         wx = walk[c, 0]

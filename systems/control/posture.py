@@ -6,7 +6,8 @@ with a velocity term standing in for node damping:
 
 - standing: pelvis at standing height (y) and over the feet midpoint (x/z), or at the
   walk velocity while walking; sitting: pelvis onto the seat; rising ("sitting up"):
-  shoulders over the feet while the pelvis climbs back to standing height;
+  shoulders over the feet while the pelvis climbs back to standing height; down on the
+  ground (a fall): rising too, through a kneel;
 - upright: the shoulder centre over the pelvis, leaning a little into the walk; a torso
   tipped past the most it leans is caught the harder the further it tips (a righting reflex);
 - yaw: opposite forces on the two sides of the pelvis turn it to the walk direction,
@@ -25,8 +26,10 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.kernelmath import (
+    HANG,
     HEAD,
     L_FOOT,
+    L_HAND,
     L_HIP,
     L_KNEE,
     L_SHOULDER,
@@ -49,7 +52,7 @@ from twig_ecs.kernelmath import (
 from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED, columns
 from twig_ecs.system import System
-from twig_ecs.systems.control.gait import LEAD, WALK_HEIGHT, step_timing
+from twig_ecs.systems.control.gait import DOWN, LEAD, WALK_HEIGHT, step_timing
 
 HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
@@ -71,6 +74,15 @@ RIGHTING_MOST = 16.0  # times the upright gain at most (from 45 degrees): a stif
 RIGHTING_SPAN = math.sin(MAX_PITCH + math.radians(10.0)) - math.sin(MAX_PITCH)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
+# getting up from the ground (a fall, a fold, a ragdoll told to stand): a standing character
+# whose pelvis is below DOWN of its standing height rises through a kneel as a person does -
+# up to KNEEL of standing in KNEEL_TIME, a pause there, then up in STAND_UP_TIME - not the
+# 0.2 s pop of the height control pulling straight to standing (issue 34)
+KNEEL = 0.55
+KNEEL_TIME, KNEEL_HOLD, STAND_UP_TIME = 0.5, 0.3, 0.8
+RISE_LAG = 0.15  # of standing height: a pelvis this far below the rise's target holds its clock
+HANDS_GAIN, HANDS_DAMP = 60.0, 12.0  # free hands pressed to the thighs as it gets up (not flung up)
+GETUP_TIME = KNEEL_TIME + KNEEL_HOLD + STAND_UP_TIME
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
 MAX_YAW_ACC = 600.0  # rad/s^2
 MAX_TURN_ERROR = 0.35  # rad of heading error the pelvis turns on at most: about 5 rad/s
@@ -103,6 +115,7 @@ class PostureColumns(NamedTuple):
     lean: np.ndarray
     scale: np.ndarray
     leg_length: np.ndarray
+    arm_mode: np.ndarray
 
 
 # fmt: off
@@ -121,11 +134,19 @@ def control_posture(args, n_chars, gravity, dt):
         if mode[c] == LIMP:
             continue
         mode_time[c] += dt
-        if mode[c] == RISE and mode_time[c] > RISE_TIME:
-            mode[c] = STAND
-            mode_time[c] = 0.0
         nd = nodes[c]
         p = nd[PELVIS]
+        from_ground = seat[c, 1] < DOWN * stand_height[c]  # (rising: from the ground, not a seat)
+        if mode[c] == RISE and mode_time[c] > (GETUP_TIME if from_ground else RISE_TIME):
+            mode[c] = STAND
+            mode_time[c] = 0.0
+        elif mode[c] == STAND and pos[p, 1] < DOWN * stand_height[c] < stand_height[c] - crouch[c]:
+            # gone down (not stooping that low on purpose): get up from here
+            mode[c] = RISE
+            mode_time[c] = 0.0
+            for k in range(3):
+                seat[c, k] = pos[p, k]
+            from_ground = True
         # gravity compensation: the torso, head and knees hold themselves up
         for role in TORSO:
             for k in range(3):
@@ -173,6 +194,16 @@ def control_posture(args, n_chars, gravity, dt):
         # -- pelvis height and ground position
         if mode[c] == SIT:
             target_y = seat[c, 1]
+        elif mode[c] == RISE and from_ground:
+            kneel = max(seat[c, 1], KNEEL * stand_height[c])
+            t = mode_time[c]
+            if t < KNEEL_TIME:
+                target_y = seat[c, 1] + t / KNEEL_TIME * (kneel - seat[c, 1])
+            else:
+                f = min(1.0, max(0.0, t - KNEEL_TIME - KNEEL_HOLD) / STAND_UP_TIME)
+                target_y = kneel + f * (stand_height[c] - kneel)
+            if pos[p, 1] < target_y - RISE_LAG * stand_height[c]:
+                mode_time[c] -= dt  # held down (pinned, under someone): the rise waits for the body
         elif mode[c] == RISE:
             f = min(1.0, mode_time[c] / RISE_TIME)
             target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
@@ -247,11 +278,23 @@ def control_posture(args, n_chars, gravity, dt):
             acc[i, 1] += ay
             acc[i, 2] += az
 
+        if mode[c] == RISE and from_ground:
+            # a hand not holding or doing anything pushes on its thigh, as a person's does
+            for side in range(2):
+                if cols.arm_mode[c, side] != HANG:
+                    continue
+                hand, hip, knee = nd[L_HAND + side], nd[L_HIP + side], nd[L_KNEE + side]
+                for k in range(3):
+                    aim = 0.6 * pos[hip, k] + 0.4 * pos[knee, k]
+                    v = (pos[hand, k] - prev[hand, k]) / dt
+                    pull = HANDS_GAIN * (aim - pos[hand, k]) - HANDS_DAMP * v
+                    acc[hand, k] += clamp(pull, -MAX_ACC, MAX_ACC)
+
         # -- upright: shoulder centre over the pelvis (over the feet when rising)
         n = nd[NECK]
-        if mode[c] == RISE:
+        if mode[c] == RISE and not from_ground:
             tx, tz = feet_x, feet_z
-        else:
+        else:  # (getting up from the ground: upright over the pelvis - the feet may be far yet)
             # into the walk by as much for every body size at the same Froude number
             tx = LEAN * scale[c] * wx + lean[c, 0]
             tz = LEAN * scale[c] * wz + lean[c, 2]
