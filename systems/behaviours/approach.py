@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -20,6 +19,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH, SIT, approach_field
+from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
 from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, SpatialIndex, nearest_obstacle_nodes
 
@@ -128,7 +128,7 @@ def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, c
     count, body): kind 0 a point (``point[k]``), 1 a body's centre of mass, 2 a
     character's pelvis. ``params`` = (speed, repulsion, cutoff, min_sq, fade, step_over,
     stall time, arrival slack, grid cell, squeeze after, squeeze, squeeze hold). ``best``/``best_at``
-    (by character row) are the stall clock and ``squeeze_until`` the end of a squeeze, updated
+    (by batch row) are the stall clock and ``squeeze_until`` the end of a squeeze, updated
     here (``improved[k]`` says so); only rows flagged ``mutual`` (two approaching each other)
     squeeze. Writes the walk vector into ``walk`` (the character table's) and ``status[k]``:
     WALKING, ARRIVED or STUCK (stopped: the goal ends), SAT (walking; it must stand up) or
@@ -187,18 +187,18 @@ def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, c
             walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
             status[k] = ARRIVED
             continue
-        if dist < best[c] - 0.1:
-            best[c] = dist
-            best_at[c] = now
+        if dist < best[k] - 0.1:
+            best[k] = dist
+            best_at[k] = now
             improved[k] = 1
-        elif now - best_at[c] > stall:
+        elif now - best_at[k] > stall:
             walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
             status[k] = STUCK
             continue
-        if mutual[k] and now - best_at[c] > squeeze_after:
-            squeeze_until[c] = now + squeeze_hold
+        if mutual[k] and now - best_at[k] > squeeze_after:
+            squeeze_until[k] = now + squeeze_hold
             improved[k] = 1
-        squeezing = mutual[k] != 0 and now < squeeze_until[c]
+        squeezing = mutual[k] != 0 and now < squeeze_until[k]
         push = repulsion * squeeze if squeezing else repulsion
         # what is no obstacle: itself, the target, what it holds, and what those hold
         skip[0] = me[k]
@@ -388,19 +388,24 @@ _GOAL_PARAMS = np.array([SteeringParams().speed, SteeringParams().repulsion, Ste
                          STEER_CELL, SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD])  # fmt: skip
 
 
-@dataclass
-class _Batch:
-    """The arrays :func:`steer_goals` reads for one set of approach goals, packed when the set
-    (or the store's rows) changes: per-character Python only when a goal starts or ends."""
-
-    key: tuple = ()
-    setups: dict = field(default_factory=dict)  # goal id -> its packed row (see Approach._setup)
-    rows: list = field(default_factory=list)  # per batch row: (character row, entity, goal)
-    fallback: list = field(default_factory=list)  # (entity, goal): steered by Approach.act
-    arrays: dict = field(default_factory=dict)
-    best: np.ndarray = field(default_factory=lambda: np.full(0, np.inf))
-    best_at: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    squeeze_until: np.ndarray = field(default_factory=lambda: np.zeros(0))
+#: An approach goal's row in the behaviour's table (:meth:`Approach._setup` makes it): where it
+#: steers from, to what, how; and its stall clock (a copy of the goal's memory, which
+#: snapshots keep: the kernel updates the row, the row updates the memory).
+_GOAL_ROW = {
+    "pelvis": Column(np.int64),
+    "me": Column(np.int64),  # its body row
+    "target": Column(np.int64, (5,)),  # (kind, pelvis node, first node, node count, body)
+    "point": Column(np.float64, (3,)),
+    "stop": Column(np.float64),
+    "direction": Column(np.float64, (4,)),  # (x, y, z, set)
+    "curl": Column(np.uint8),
+    "max_speed": Column(np.float64),
+    "gaze": Column(np.int64),  # node to look at; -2: a target that moves (looked at in Python); -1: none
+    "arms": Column(object),  # "hug", "grapple", "reach" or None
+    "best": Column(np.float64),
+    "best_at": Column(np.float64),
+    "squeeze_until": Column(np.float64),
+}
 
 
 @register
@@ -440,10 +445,9 @@ class Approach(Behavior):
         if steer_to(character, goal, target, p["stop_distance"], p["direction"], p["curl"], settle=True):
             self.finish(character, goal)
 
-    def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
-        """One goal's packed row: (pelvis, body, target (kind, node, first, count, body), point,
-        stop, direction (x, y, z, set), curl, max speed, gaze node, arms); None for a
-        target that is gone (the per-character path then says what happens)."""
+    def _setup(self, row: int, entity: int, goal: Goal) -> dict | None:
+        """One goal's row of the table (see ``_GOAL_ROW``); None for a target that is gone
+        (the per-character path then says what happens)."""
         scene = self.scene
         ch = scene.state.characters
         p = goal.params
@@ -472,64 +476,39 @@ class Approach(Behavior):
             direction = (float(d[0]), 0.0, float(d[2]), 1.0)
         me = self.world.component_for_entity(entity, Character)
         arms = p["arms"] if (p["arms"] != "reach" or kind != 0) else None
-        return (int(ch.nodes[row, PELVIS]), int(ch.body[row]), (kind, node, first, count, tbody), point,
-                float(p["stop_distance"]), direction, bool(p["curl"]), float(me.max_speed), gaze,
-                arms)  # fmt: skip
+        memory = goal.memory  # the stall clock: the goal's memory keeps it (snapshots do), a copy here
+        return dict(pelvis=int(ch.nodes[row, PELVIS]), me=int(ch.body[row]),
+                    target=(kind, node, first, count, tbody), point=point, stop=float(p["stop_distance"]),
+                    direction=direction, curl=bool(p["curl"]), max_speed=float(me.max_speed), gaze=gaze,
+                    arms=arms, best=memory.get("best", np.inf), best_at=memory.get("best_at", scene.time),
+                    squeeze_until=memory.get("squeeze_until", -np.inf))  # fmt: skip
 
-    def _pack(self, packed: _Batch, key: tuple, rows: list[int], entities: list[int], goals: list) -> None:
-        """Gather the goals' packed rows into the kernel's arrays (when the set of goals changes)."""
-        scene = self.scene
-        state = scene.state
-        if packed.key[1:] != key[1:]:  # rows moved, or another store: every goal again
-            packed.setups.clear()
-        live = set(key[0])
-        for gid in [g for g in packed.setups if g not in live]:
-            del packed.setups[gid]
-        n_chars = state.characters.count
-        if len(packed.best) < n_chars:
-            grow = n_chars - len(packed.best)
-            packed.best = np.concatenate([packed.best, np.full(grow, np.inf)])
-            packed.best_at = np.concatenate([packed.best_at, np.zeros(grow)])
-            packed.squeeze_until = np.concatenate([packed.squeeze_until, np.full(grow, -np.inf)])
-        packed.rows, packed.fallback = [], []
-        setups = []
-        for row, entity, goal in zip(rows, entities, goals, strict=True):
-            if goal is None:
-                continue
-            setup = packed.setups.get(goal.id)
-            if setup is None:
-                setup = self._setup(row, entity, goal)
-                if setup is None:
-                    packed.fallback.append((entity, goal))
-                    continue
-                packed.setups[goal.id] = setup
-                # the stall clock lives in the goal's memory (snapshots keep it); a copy by row here
-                packed.best[row] = goal.memory.get("best", np.inf)
-                packed.best_at[row] = goal.memory.get("best_at", scene.time)
-                packed.squeeze_until[row] = goal.memory.get("squeeze_until", -np.inf)
-            packed.rows.append((row, entity, goal))
-            setups.append(setup)
-        n = len(setups)
-        a = packed.arrays
-        a["crows"] = np.array([r for r, _, _ in packed.rows], dtype=np.int64)
-        a["pelvis"] = np.array([s[0] for s in setups], dtype=np.int64)
-        a["me"] = np.array([s[1] for s in setups], dtype=np.int64)
-        a["target"] = np.array([s[2] for s in setups], dtype=np.int64).reshape(n, 5)
-        a["point"] = np.array([s[3] for s in setups], dtype=np.float64).reshape(n, 3)
-        a["stop"] = np.array([s[4] for s in setups], dtype=np.float64)
-        a["direction"] = np.array([s[5] for s in setups], dtype=np.float64).reshape(n, 4)
-        a["curl"] = np.array([s[6] for s in setups], dtype=np.uint8)
-        a["max_speed"] = np.array([s[7] for s in setups], dtype=np.float64)
-        gaze = [(k, s[8]) for k, s in enumerate(setups) if s[8] != -1]
-        a["gaze_rows"] = np.array([a["crows"][k] for k, g in gaze if g >= 0], dtype=np.int64)
-        a["gaze_nodes"] = np.array([g for _, g in gaze if g >= 0], dtype=np.int64)
-        a["gaze_moving"] = [k for k, g in gaze if g == -2]
+    def _table(self) -> RowTable:
+        """This behaviour's table of approach goals (a cache: the goals' memories are the state)."""
+        table = self.scratch.get("goals")
+        if table is None:
+            table = self.scratch["goals"] = RowTable(**_GOAL_ROW)
+        return table
+
+    def _pack(self, table: RowTable, rows: list[int], entities: list[int], goals: list) -> dict:
+        """The kernel's arrays derived from the table's rows (when the set of goals changes)."""
+        a = {}
+        k_rows = table.positions
+        a["crows"] = np.array(rows, dtype=np.int64)[k_rows] if len(k_rows) else np.zeros(0, dtype=np.int64)
+        a["entries"] = [(rows[i], entities[i], goals[i]) for i in k_rows]
+        a["fallback"] = [(entities[i], goals[i]) for i in table.missing]
+        gaze, arms_of = table["gaze"], table["arms"]
+        looked = np.flatnonzero(gaze >= 0)
+        a["gaze_rows"], a["gaze_nodes"] = a["crows"][looked], gaze[looked]
+        a["gaze_moving"] = np.flatnonzero(gaze == -2).tolist()
         for arms in ("hug", "grapple", "reach"):
-            picked = [k for k, s in enumerate(setups) if s[9] == arms and (arms != "reach" or s[8] >= 0)]
+            picked = [
+                k for k in range(len(table)) if arms_of[k] == arms and (arms != "reach" or gaze[k] >= 0)
+            ]
             a[arms] = a["crows"][picked]
             if arms == "reach":
-                a["reach_nodes"] = np.array([setups[k][8] for k in picked], dtype=np.int64)
-        a["reach_moving"] = [k for k, s in enumerate(setups) if s[9] == "reach" and s[8] == -2]
+                a["reach_nodes"] = gaze[picked]
+        a["reach_moving"] = [k for k in range(len(table)) if arms_of[k] == "reach" and gaze[k] == -2]
         holds = [(self.world.component_for_entity(e, Body).index, joint.held)
                  for e, character in self.world.get_component(Character) if character.holding
                  for joint in (self.world.try_component(g, GrabJoint) for g in character.holding.values())
@@ -541,11 +520,14 @@ class Approach(Behavior):
         a["skip"] = np.empty(2 + 2 * len(holder), dtype=np.int64)
         # two characters approaching each other: each copies the other's dithering (pursuit),
         # the case that squeezes (see SQUEEZE)
-        aims = {s[1]: s[2][4] for s in setups if s[2][0] == 2}
-        a["mutual"] = np.array([s[2][0] == 2 and aims.get(s[2][4]) == s[1] for s in setups], dtype=np.uint8)
+        target, me = table["target"], table["me"]
+        aims = {int(me[k]): int(target[k, 4]) for k in range(len(table)) if target[k, 0] == 2}
+        a["mutual"] = np.array([target[k, 0] == 2 and aims.get(int(target[k, 4])) == me[k]
+                                for k in range(len(table))], dtype=np.uint8)  # fmt: skip
+        n = len(table)
         for name, dtype in (("status", np.int64), ("distance", np.float64), ("improved", np.uint8)):
             a[name] = np.empty(n, dtype=dtype)
-        packed.key = key
+        return a
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
         """Steer every approaching character in one :func:`steer_goals` call; end goals that
@@ -554,14 +536,18 @@ class Approach(Behavior):
         state = scene.state
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        packed = self.scratch.get("packed")  # rebuilt from the goals when they change
-        if packed is None:
-            packed = self.scratch["packed"] = _Batch()
-        key = (tuple(-1 if g is None else g.id for g in goals), state.version, state.nodes.count,
-               state.bodies.count, id(state))  # fmt: skip
-        if key != packed.key:
-            self._pack(packed, key, rows, entities, goals)
-        a = packed.arrays
+        table = self._table()
+        live = [k for k, g in enumerate(goals) if g is not None]
+        layout = (state.version, state.nodes.count, state.bodies.count, id(state))
+        rows = [rows[k] for k in live]
+        entities = [entities[k] for k in live]
+        goals = [goals[k] for k in live]
+        if table.sync(
+            [g.id for g in goals], layout, lambda i, _: self._setup(rows[i], entities[i], goals[i])
+        ):
+            self.scratch["arrays"] = self._pack(table, rows, entities, goals)
+        a = self.scratch["arrays"]
+        entries = a["entries"]
         ch, nodes, links = state.characters, state.nodes, state.links
         # what the per-character act writes before it steers: gaze and arms
         if len(a["gaze_rows"]):
@@ -575,33 +561,34 @@ class Approach(Behavior):
             ch.arm_node[a["reach"]] = a["reach_nodes"][:, None]
             ch.arm_mode[a["reach"]] = REACH
         for k in a["gaze_moving"]:
-            row, entity, goal = packed.rows[k]
+            row, entity, goal = entries[k]
             scene.character_handle(entity).look_at(goal.params["target"])
         for k in a["reach_moving"]:
-            row, entity, goal = packed.rows[k]
+            row, entity, goal = entries[k]
             scene.character_handle(entity).reach(goal.params["target"], hand="both")
-        if len(packed.rows):
+        if len(entries):
             index = SpatialIndex.of(scene)
-            start, entries, slot, scratch, found = index.grid(scene)
+            start, grid, slot, scratch, found = index.grid(scene)
             cx, cz, spread, wide, walls, blocked = index.footprints(scene)
             wall_body, wall_start, wall_links = _wall_table(walls)
             obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
-            steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, entries,
-                        a["crows"], a["pelvis"], a["me"], a["target"], a["point"], a["stop"], a["direction"],
-                        a["curl"], a["max_speed"], ch.mode, packed.best, packed.best_at,
-                        packed.squeeze_until, scene.time, scene.dt,
+            best, best_at, squeeze_until = table["best"], table["best_at"], table["squeeze_until"]
+            steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, grid,
+                        a["crows"], table["pelvis"], table["me"], table["target"], table["point"],
+                        table["stop"], table["direction"], table["curl"], table["max_speed"], ch.mode, best,
+                        best_at, squeeze_until, scene.time, scene.dt,
                         _GOAL_PARAMS,
                         cx, cz, spread, np.flatnonzero(wide), blocked, wall_body, wall_start, wall_links,
                         links.a, links.b,
                         a["grab_holder"], a["grab_held"], slot, scratch, found, obstacles, a["skip"], ch.walk,
                         a["status"], a["distance"], a["improved"], a["mutual"])  # fmt: skip
             for k in np.flatnonzero(a["improved"]):
-                row, _, goal = packed.rows[k]
-                goal.memory.update(best=float(packed.best[row]), best_at=float(packed.best_at[row]))
-                if packed.squeeze_until[row] > -np.inf:
-                    goal.memory["squeeze_until"] = float(packed.squeeze_until[row])
+                _, _, goal = entries[k]
+                goal.memory.update(best=float(best[k]), best_at=float(best_at[k]))
+                if squeeze_until[k] > -np.inf:
+                    goal.memory["squeeze_until"] = float(squeeze_until[k])
             for k in np.flatnonzero(a["status"] != WALKING):
-                row, entity, goal = packed.rows[k]
+                row, entity, goal = entries[k]
                 character = scene.character_handle(entity)
                 status = a["status"][k]
                 if status == ARRIVED:
@@ -614,14 +601,13 @@ class Approach(Behavior):
                     character.stand()
                 else:  # CHECK: a walk vector it cannot do - the handle says why
                     character.walk(ch.walk[row].copy())
-        for entity, goal in packed.fallback:
+        for entity, goal in a["fallback"]:
             self.act(scene.character_handle(entity), self.world.component_for_entity(entity, Mind), goal, dt)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Stand still, arms down, looking ahead."""
-        packed = self.scratch.get("packed")
-        if packed is not None and goal is not None:
-            packed.setups.pop(goal.id, None)  # resumed later: the stall clock comes from its memory
+        if goal is not None:
+            self._table().forget(goal.id)  # resumed later: the stall clock comes from its memory
         character.stop()
         character.look_at(None)
         character.pose("hang")
