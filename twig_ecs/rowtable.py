@@ -51,17 +51,20 @@ class Column:
 class RowTable:
     """Rows keyed by goal id or entity, packed into numpy columns (see the module docstring)."""
 
+    # What a table restored from a snapshot starts with beside its columns and saved rows
+    # (a snapshot sets only what :meth:`__getstate__` gave, without calling ``__init__``).
+    _layout: Any = _UNSET
+    _live: tuple = ()
+    _packed: dict[str, np.ndarray] = {}  # noqa: RUF012 (replaced, never changed in place)
+    #: The packed keys, in packing order, and their positions in the keys given to :meth:`sync`.
+    keys: tuple = ()
+    positions = np.zeros(0, dtype=np.int64)
+    #: Positions of the keys ``make`` refused (None) at the last packing.
+    missing: tuple[int, ...] = ()
+
     def __init__(self, **columns: Column) -> None:
         self.columns = dict(columns)
         self._rows: dict[Hashable, dict[str, Any]] = {}
-        self._layout: Any = _UNSET
-        self._live: tuple = ()
-        self._packed: dict[str, np.ndarray] = {}
-        #: The packed keys, in packing order, and their positions in the keys given to :meth:`sync`.
-        self.keys: tuple = ()
-        self.positions = np.zeros(0, dtype=np.int64)
-        #: Positions of the keys ``make`` refused (None) at the last packing.
-        self.missing: list[int] = []
 
     def __len__(self) -> int:
         return len(self.keys)
@@ -99,18 +102,19 @@ class RowTable:
         wanted = set(live)
         for key in [k for k in self._rows if k not in wanted]:
             del self._rows[key]
-        positions, self.missing = [], []
+        positions, missing = [], []
         for i, key in enumerate(live):
             row = self._rows.get(key)
             if row is None:
                 made = make(i, key)
                 if made is None:
-                    self.missing.append(i)
+                    missing.append(i)
                     continue
                 row = self._rows[key] = {**made, **kept.get(key, {})}
             positions.append(i)
         self.keys = tuple(live[i] for i in positions)
         self.positions = np.array(positions, dtype=np.int64)
+        self.missing = tuple(missing)
         self._pack()
         self._live = live
         self._layout = layout
@@ -160,15 +164,10 @@ class RowTable:
                     row[name] = value.copy() if column.shape else value.item()
 
     def __getstate__(self) -> dict[str, Any]:
-        """What a snapshot keeps: the columns and each row's ``saved`` values (nothing else is state)."""
+        """What a snapshot keeps: the columns and each row's ``saved`` values (nothing else is
+        state: a restored table makes every row again at its first sync, the saved values
+        kept). A table kept in a snapshot has plain-number columns (no ``object`` ones)."""
         self._take_back()
         saved = self._saved()
-        return {
-            "columns": self.columns,
-            "rows": {key: {c: row[c] for c in saved} for key, row in self._rows.items()},
-        }
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        """A restored table: its saved values, every row to be made again at the first sync."""
-        self.__init__(**state["columns"])
-        self._rows = {key: dict(values) for key, values in state["rows"].items()}
+        rows = {key: {c: row[c] for c in saved if c in row} for key, row in self._rows.items()}
+        return {"columns": self.columns, "_rows": rows}

@@ -111,15 +111,6 @@ FOREARM = 0.04  # m (at 1.75 m tall): forearm capsule radius
 CLEAR = 1.5  # forearm radii off the surface the hands rest: on the back, not squeezing it
 
 
-#: A hugger's row in the behaviour's table while its arms go round or hold (:meth:`Hug._setup`):
-#: the pair's fixed figures, looked up once per goal.
-_HUG_ROW = {
-    "partner": Column(np.int64),  # the partner's character row
-    "surface": Column(np.float64, (3,)),  # its thickest capsule at its neck, spine and pelvis (m)
-    "gap_links": Column(np.int64, ragged=True),  # its capsules the hugger's torso stops at
-    "duration": Column(np.float64),  # s to hold
-}
-
 #: ``ROUNDS`` as (cos, sin) rows, for the kernel
 _ROUNDS = np.array([(math.cos(a), math.sin(a)) for a in ROUNDS])
 _COS_PAST, _SIN_PAST = math.cos(PAST), math.sin(PAST)
@@ -277,6 +268,16 @@ def hug_arms(pos, prev, link_a, link_b, link_radius, nodes, scale, mode, walk, l
             on_back[k] = count_hands_on_back(pos, nd[SPINE], nd[L_HAND], nd[R_HAND], od[PELVIS], od[SPINE],
                                              od[NECK])
 # fmt: on
+
+
+#: A hugger's row in the behaviour's table while its arms go round or hold (:meth:`Hug._setup`):
+#: the pair's fixed figures, looked up once per goal.
+_HUG_ROW = {
+    "partner": Column(np.int64),  # the partner's character row
+    "surface": Column(np.float64, (3,)),  # its thickest capsule at its neck, spine and pelvis (m)
+    "gap_links": Column(np.int64, ragged=True),  # its capsules the hugger's torso stops at
+    "duration": Column(np.float64),  # s to hold
+}
 
 
 @register

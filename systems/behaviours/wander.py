@@ -72,11 +72,10 @@ class WanderBehavior(Behavior):
         key = (tuple(entities), scene.state.version, id(scene.state))
         if self.scratch.get("key") != key:
             comps = [self.world.component_for_entity(e, Wander) for e in entities]
-            crows = np.array(rows, dtype=np.int64)
-            self.scratch["walkers"] = walkers(n)._replace(
-                crows=crows, pelvis=ch.nodes[crows, PELVIS], me=ch.body[crows],
-                stall=np.array([w.patience for w in comps], dtype=np.float64),
-            )  # fmt: skip
+            w = self.scratch["walkers"] = walkers(n)
+            w.crows[:] = rows
+            w.pelvis[:], w.me[:] = ch.nodes[w.crows, PELVIS], ch.body[w.crows]
+            w.stall[:] = [c.patience for c in comps]
             self.scratch["arrive"] = np.array([w.arrive for w in comps], dtype=np.float64)
             self.scratch["key"] = key
         w = self.scratch["walkers"]

@@ -118,26 +118,21 @@ def gains(squeeze_after: float = np.inf, squeeze: float = 1.0, squeeze_hold: flo
 
 def walkers(n: int) -> Walkers:
     """The arrays of ``n`` rows, every one a point target reached from where it is, no extras
-    skipped, a fresh stall clock; the caller fills in what its rows need."""
+    skipped, a fresh stall clock; the caller fills in what its rows need (or replaces a
+    field with its own array: ``walkers(n)._replace(stop=...)``)."""
+    # a block per dtype for the 1-d fields (a one-row batch is made per call: few allocations)
+    f = np.zeros((12, n))
+    i = np.zeros((8, n), np.int64)
+    u = np.zeros((3, n), np.uint8)
+    f[6:10] = np.array([_FIELD.speed, np.inf, np.inf, np.inf])[:, None]  # speed, max speed, stall, best
+    f[11] = -np.inf  # squeeze_until
+    u[0] = 1  # curl
     return Walkers(
-        crows=np.zeros(n, np.int64), pelvis=np.zeros(n, np.int64), me=np.zeros(n, np.int64),
-        target=np.zeros((n, 5), np.int64), point=np.zeros((n, 3)), stop=np.zeros(n), arrive=np.zeros(n),
-        direction=np.zeros((n, 4)), curl=np.ones(n, np.uint8), speed=np.full(n, _FIELD.speed),
-        max_speed=np.full(n, np.inf), stall=np.full(n, np.inf), squeeze=np.zeros(n, np.uint8),
-        skip_bodies=np.zeros(0, np.int64), skip_start=np.zeros(n, np.int64), skip_count=np.zeros(n, np.int64),
-        best=np.full(n, np.inf), best_at=np.zeros(n), squeeze_until=np.full(n, -np.inf),
-        status=np.zeros(n, np.int64), distance=np.zeros(n), improved=np.zeros(n, np.uint8),
+        crows=i[0], pelvis=i[1], me=i[2], target=np.zeros((n, 5), np.int64), point=np.zeros((n, 3)),
+        stop=f[0], arrive=f[1], direction=np.zeros((n, 4)), curl=u[0], speed=f[6], max_speed=f[7], stall=f[8],
+        squeeze=u[1], skip_bodies=np.zeros(0, np.int64), skip_start=i[3], skip_count=i[4], best=f[9],
+        best_at=f[10], squeeze_until=f[11], status=i[5], distance=f[2], improved=u[2],
     )  # fmt: skip
-
-
-def _wall_table(walls: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The static bodies of the index's footprints as arrays: bodies, offsets, their links (CSR)."""
-    bodies = np.array(list(walls), dtype=np.int64)
-    sizes = [len(rows) for rows in walls.values()]
-    start = np.zeros(len(bodies) + 1, dtype=np.int64)
-    start[1:] = np.cumsum(sizes)
-    links = np.concatenate(list(walls.values())).astype(np.int64) if walls else np.zeros(0, dtype=np.int64)
-    return bodies, start, links
 
 
 def around(scene, holds: tuple[np.ndarray, np.ndarray] | None = None, shapes: bool = True,
@@ -154,9 +149,12 @@ def around(scene, holds: tuple[np.ndarray, np.ndarray] | None = None, shapes: bo
     index = SpatialIndex.of(scene)
     start, entries, slot, scratch, found = index.grid(scene)
     cx, cz, spread, wide, walls, blocked = index.footprints(scene)
-    if not shapes:
+    if shapes:
+        wall_body, wall_start, wall_links = index.wall_links(scene)
+    else:
         wide, walls, blocked = np.zeros_like(wide), {}, np.zeros_like(blocked)
-    wall_body, wall_start, wall_links = _wall_table(walls)
+        wall_body, wall_start, wall_links = (np.zeros(0, np.int64), np.zeros(1, np.int64),
+                                             np.zeros(0, np.int64))  # fmt: skip
     holder, held = holds if holds is not None else (np.zeros(0, np.int64), np.zeros(0, np.int64))
     obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
     skip = np.empty(1 + extra_skip + 2 * len(holder), dtype=np.int64)
