@@ -102,3 +102,21 @@ def test_approach_keeps_one_row_per_goal_in_its_table():
         scene.step()
         assert rows.keys == (far.id,), "the ended goal's row is gone"
         assert np.isfinite(rows["best"][0]) and far.memory["best"] == rows["best"][0]
+
+
+def test_a_crowd_restored_mid_wander_walks_on_to_the_same_targets():
+    """Wander keeps each wanderer's target and stall clock in its table (not in store columns
+    of its own): a snapshot holds them, and the restored crowd steps on exactly as the original."""
+    with Scene.load("crowd", count=6, seed=2) as scene:
+        scene.step(90)
+        targets = scene.behaviors["wander"].targets
+        assert len(targets) >= 4 and (targets["speed"] > 0).all(), "wanderers with targets"
+        assert not hasattr(scene.state.characters, "steer_goal")
+        with Scene.restore(scene.snapshot()) as copy:
+            restored = copy.behaviors["wander"].targets
+            assert {key: restored.row(key)["goal"].tolist() for key in targets.keys} == {
+                key: targets.row(key)["goal"].tolist() for key in targets.keys
+            }
+            scene.step(120)
+            copy.step(120)
+            assert copy.state_hash() == scene.state_hash()

@@ -3,8 +3,10 @@
 A goal-driven behaviour (``character.approach(target, stop_distance=..., direction=...,
 arms=...)``). Each step it steers with the attraction + curl-repulsion field of
 :mod:`twig_ecs.steering` and looks at the target; it is done within the stop distance
-and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry and
-drag use :func:`steer_to` for their own approach phases.
+and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry,
+drag, follow and sit use :func:`steer_to` for their own approach phases. Both are rows
+of the one steering kernel (:mod:`twig_ecs.systems.control.steer`); the goals' rows are
+kept in a :class:`~twig_ecs.rowtable.RowTable`.
 """
 
 from __future__ import annotations

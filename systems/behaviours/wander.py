@@ -11,7 +11,8 @@ A *batch* behaviour: one call of the steering kernel
 (:func:`~twig_ecs.systems.control.steer.steer_rows`, approach's too) steers every wandering
 character (the spatial index's ground grid finds the neighbours), so a crowd of a thousand
 costs one call, not a thousand. Reads node positions and the Wander components (only when
-drawing targets); writes the character table's ``walk`` and ``steer_*`` columns.
+drawing targets); writes the character table's ``walk``. Each wanderer's target and stall
+clock are a row of the behaviour's table (:class:`~twig_ecs.rowtable.RowTable`).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Character
 from twig_ecs.kernelmath import PELVIS
+from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.step import StepContext
 from twig_ecs.systems.control.steer import ARRIVED, STUCK, around, gains, steer_rows, walkers
 
@@ -62,12 +64,18 @@ class WanderBehavior(Behavior):
             if mind.autonomous:
                 mind.activations["wander"] = wander.activation
 
+    def setup(self) -> None:
+        """Its table of wanderers (state: a snapshot keeps it)."""
+        self.targets = RowTable(**_TARGET_ROW)
+
     def act_batch(self, rows: list[int], entities: list[int], dt: float) -> None:
         """Steer all winners in one call of the steering kernel; draw new targets for those
         that arrived, stalled or have none yet."""
         scene = self.scene
         ch = scene.state.characters
         n = len(rows)
+        table = self.targets
+        table.sync(entities, "by entity", _no_target)  # a row per winner, its target kept while it wins
         # per-character parameters: kept while the winners stay the same (they rarely change)
         key = (tuple(entities), scene.state.version, id(scene.state))
         if self.scratch.get("key") != key:
@@ -78,31 +86,45 @@ class WanderBehavior(Behavior):
             w.stall[:] = [c.patience for c in comps]
             self.scratch["arrive"] = np.array([w.arrive for w in comps], dtype=np.float64)
             self.scratch["key"] = key
-        w = self.scratch["walkers"]
-        crows = w.crows
-        # the target (x, z) and pace of each, the stall clock: the character table's steer_* columns
-        w.point[:, 0], w.point[:, 2] = ch.steer_goal[crows, 0], ch.steer_goal[crows, 1]
-        w.speed[:] = ch.steer_speed[crows]
+        # the target (x, z) and pace of each from the table; the kernel keeps its stall clock there
+        w = self.scratch["walkers"]._replace(best=table["best"], best_at=table["best_at"])
+        goal = table["goal"]
+        w.point[:, 0], w.point[:, 2] = goal[:, 0], goal[:, 1]
+        w.speed[:] = table["speed"]
         w.arrive[:] = np.where(w.speed > 0.0, self.scratch["arrive"], np.inf)  # no target yet: draw one
-        w.best[:], w.best_at[:] = ch.steer_best[crows], ch.steer_best_at[crows]
         # round everyone by their nearest node (no walls or discs, nothing held left out)
         steer_rows(around(scene, shapes=False), w, _GAINS, ch.walk, ch.mode, scene.time, dt)
-        ch.steer_best[crows], ch.steer_best_at[crows] = w.best, w.best_at
         for k in np.flatnonzero((w.status == ARRIVED) | (w.status == STUCK)):
-            self._draw_target(entities[k], rows[k])
+            self._draw_target(entities[k], k)
 
-    def _draw_target(self, entity: int, row: int) -> None:
-        """A new random target in the character's square (a rare, per-character event)."""
+    def _draw_target(self, entity: int, k: int) -> None:
+        """A new random target in the character's square for row ``k`` of the table (a rare,
+        per-character event)."""
         wander = self.world.component_for_entity(entity, Wander)
-        ch = self.scene.state.characters
+        table = self.targets
         x, z = self.scene.rng.uniform(-wander.radius, wander.radius, 2)
-        ch.steer_goal[row] = (wander.centre[0] + x, wander.centre[1] + z)
-        ch.steer_speed[row] = wander.speed
-        ch.steer_best[row] = np.inf
-        ch.steer_best_at[row] = self.scene.time
+        table["goal"][k] = (wander.centre[0] + x, wander.centre[1] + z)
+        table["speed"][k] = wander.speed
+        table["best"][k] = np.inf
+        table["best_at"][k] = self.scene.time
         wander.targets += 1
 
     def stop(self, character, goal) -> None:
         """Stand still; the next wander starts with a fresh target."""
         character.stop()
-        self.scene.state.characters.steer_speed[character.character.index] = 0.0
+        self.targets.forget(character.entity)
+
+
+#: A wanderer's row in the behaviour's table: its target and how it is getting on. State (a
+#: snapshot keeps it); a row is made when a character starts wandering and dropped when it stops.
+_TARGET_ROW = {
+    "goal": Column(np.float64, (2,), saved=True),  # (x, z) of its target
+    "speed": Column(np.float64, saved=True),  # m/s; 0: no target yet (one is drawn)
+    "best": Column(np.float64, saved=True),  # nearest it has been to the target (m) ...
+    "best_at": Column(np.float64, saved=True),  # ... since when (s)
+}
+
+
+def _no_target(_: int, __: int) -> dict:
+    """A new wanderer's row: no target yet."""
+    return {"goal": (0.0, 0.0), "speed": 0.0, "best": np.inf, "best_at": 0.0}
