@@ -258,7 +258,7 @@ _GOAL_ROW = {
     "stop": Column(np.float64),
     "arrive": Column(np.float64),  # the stop distance and ARRIVE_SLACK
     "skip": Column(np.int64, ragged=True),  # the target's body: no obstacle
-    "direction": Column(np.float64, (4,)),  # (x, y, z, set)
+    "direction": Column(np.float64, (4,)),  # (x, y, z, how: steer.FROM_HERE or steer.ALONG)
     "curl": Column(np.uint8),
     "max_speed": Column(np.float64),
     "gaze": Column(np.int64),  # node to look at; -2: a target that moves (looked at in Python); -1: none
