@@ -1,6 +1,6 @@
 """Behaviours over arrays (issue 19): a batch behaviour must do what its per-character form does.
 
-``approach`` steers every character it wins in one kernel call (``steer_goals``); its
+``approach`` steers every character it wins in one kernel call (``steer.steer_rows``); its
 per-character form (``Approach.act`` -> ``steer_to``) stays for plug-ins and rare targets.
 Both must write the same walk vectors from the same state - round walls, wide bodies,
 what a character holds, moving targets - and end goals the same way.

@@ -58,11 +58,12 @@ from twig_ecs.world import World, check_world
 
 MAGIC = b"TWIGSNAP"
 #: Version of the file layout and of what the payload holds; bump on any change.
-FORMAT_VERSION = 6  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
+FORMAT_VERSION = 7  # 2: a scene holds its plugins and an event bus; nodes and links are no longer entities
 # 3: hands gliding in a hug or an embrace are a character-table column (hand_aim), not a HandAims component
 # 4: the payload is data (twig_ecs.worlddata: JSON structure + array bytes), no longer a pickle
 # 5: systems live in feature packages (twig_ecs.systems.physics/control/behaviours): classes moved
 # 6: a scene's entity names and goal holders are objects of their own (EntityNames, GoalBook)
+# 7: a wanderer's target is a row of the wander behaviour's table (RowTable), not steer_* columns of the store
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32

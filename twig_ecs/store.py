@@ -153,11 +153,6 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "steps": (np.int64, (), 0),
     "breath_phase": (np.float64, (), 0.0),
     "gesture_phase": (np.float64, (), 0.0),
-    # batch steering (the wander behaviour): where it heads and how it is getting on
-    "steer_goal": (np.float64, (2,), 0.0),  # (x, z) of the current target
-    "steer_speed": (np.float64, (), 0.0),  # m/s; 0: no target yet
-    "steer_best": (np.float64, (), np.inf),  # nearest it has been to the target (m)
-    "steer_best_at": (np.float64, (), 0.0),  # when (s)
 }
 
 BODY_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {

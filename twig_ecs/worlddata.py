@@ -61,6 +61,7 @@ WORLD_MODULES = (
     "twig_ecs.grabs", "twig_ecs.handles", "twig_ecs.library", "twig_ecs.names", "twig_ecs.parameters",
     "twig_ecs.perturb", "twig_ecs.plugins", "twig_ecs.scene", "twig_ecs.scenefile", "twig_ecs.schedule",
     "twig_ecs.steering", "twig_ecs.store", "twig_ecs.system", "twig_ecs.templates", "twig_ecs.yamldoc",
+    "twig_ecs.rowtable",
 )  # fmt: skip
 #: Classes outside those modules that a world holds as values.
 _PLAIN_CLASSES: dict[str, type] = {

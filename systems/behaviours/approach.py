@@ -3,25 +3,35 @@
 A goal-driven behaviour (``character.approach(target, stop_distance=..., direction=...,
 arms=...)``). Each step it steers with the attraction + curl-repulsion field of
 :mod:`twig_ecs.steering` and looks at the target; it is done within the stop distance
-and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry and
-drag use :func:`steer_to` for their own approach phases.
+and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry,
+drag, follow and sit use :func:`steer_to` for their own approach phases. Both are rows
+of the one steering kernel (:mod:`twig_ecs.systems.control.steer`); the goals' rows are
+kept in a :class:`~twig_ecs.rowtable.RowTable`.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
-from dataclasses import dataclass, field
-
 import numpy as np
-from numba import njit
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.goals import GoalSchema, Param, metres
-from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH, SIT, approach_field
-from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH
+from twig_ecs.rowtable import Column, RowTable
+from twig_ecs.steering import ground_distance
 from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, SpatialIndex, nearest_obstacle_nodes
+from twig_ecs.systems.control.steer import (  # noqa: F401 (the statuses: what approach's callers read)
+    ALONG_UNIT,
+    ARRIVED,
+    CHECK,
+    SAT,
+    STUCK,
+    WALKING,
+    around,
+    gains,
+    steer_rows,
+    walkers,
+)
 
 STALL_TIME = 4.0  # s without getting 10 cm closer: give up
 ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
@@ -32,7 +42,7 @@ ARRIVE_SLACK = 0.1  # m beyond the stop distance that still counts as there
 #: swings to and fro; two walkers there that pursue each other copy each other's dithering
 #: and drift off together, and their goals fail 'stuck'. Pushed less and heading for where
 #: the other is, they walk into the gap and the collisions see them past. Only that pair
-#: squeezes (``mutual`` rows of :func:`steer_goals`): a walker whose target does not come
+#: squeezes (``squeeze`` rows of :func:`steer_rows`): a walker whose target does not come
 #: to meet it keeps the field it had (and the schoolyard computes what it did).
 #: Half the stall time, so the other half is left to get through before it gives up.
 SQUEEZE_AFTER = 0.5 * STALL_TIME
@@ -111,190 +121,6 @@ def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray
     return nodes if count else np.zeros((0, 3))
 
 
-#: Status of a row after :func:`steer_goals`.
-WALKING, ARRIVED, STUCK, SAT, CHECK = 0, 1, 2, 3, 4
-
-
-@njit(cache=True, nogil=True)
-def steer_goals(pos, prev, mass, node_body, n_nodes, grid_start, grid_entries, crows, pelvis, me, target,
-                point, stop, direction, curl, max_speed, mode, best, best_at, squeeze_until, now, dt, params,
-                cx, cz, spread, wide, blocked, wall_body, wall_start, wall_links, link_a, link_b,
-                grab_holder, grab_held, slot, scratch, found, obstacles, skip, walk, status, distance,
-                improved, mutual):  # fmt: skip
-    """Steer every row of a batch of approach goals at once: :func:`steer_to` over arrays.
-
-    Row k is the character whose table row is ``crows[k]`` (pelvis node ``pelvis[k]``,
-    body ``me[k]``), heading for ``target[k]`` = (kind, pelvis node, first node, node
-    count, body): kind 0 a point (``point[k]``), 1 a body's centre of mass, 2 a
-    character's pelvis. ``params`` = (speed, repulsion, cutoff, min_sq, fade, step_over,
-    stall time, arrival slack, grid cell, squeeze after, squeeze, squeeze hold). ``best``/``best_at``
-    (by character row) are the stall clock and ``squeeze_until`` the end of a squeeze, updated
-    here (``improved[k]`` says so); only rows flagged ``mutual`` (two approaching each other)
-    squeeze. Writes the walk vector into ``walk`` (the character table's) and ``status[k]``:
-    WALKING, ARRIVED or STUCK (stopped: the goal ends), SAT (walking; it must stand up) or
-    CHECK (a walk vector the character cannot do: left for the Python path to refuse). ``distance[k]``: to the
-    target on the ground. Obstacles are found as :func:`obstacles_near` finds them, in
-    the same order: walls, wide bodies (``wide``: their rows), then the nearest node of
-    every other body.
-    """
-    speed, repulsion, cutoff, min_sq, fade = params[0], params[1], params[2], params[3], params[4]
-    step_over, stall, slack, cell = params[5], params[6], params[7], params[8]
-    squeeze_after, squeeze, squeeze_hold = params[9], params[10], params[11]
-    n_grabs = len(grab_holder)
-    for k in range(len(crows)):
-        c = crows[k]
-        p = pelvis[k]
-        hx, hy, hz = pos[p, 0], pos[p, 1], pos[p, 2]
-        kind = target[k, 0]
-        tb = target[k, 4]
-        vx = 0.0
-        vz = 0.0
-        if kind == 0:
-            wx0, wz0 = point[k, 0], point[k, 2]
-        else:
-            first, count = target[k, 2], target[k, 3]
-            msum = 0.0
-            sx = sz = 0.0
-            ux = uz = 0.0
-            for i in range(first, first + count):
-                m = mass[i]
-                msum += m
-                sx += pos[i, 0] * m
-                sz += pos[i, 2] * m
-                ux += (pos[i, 0] - prev[i, 0]) / dt * m
-                uz += (pos[i, 2] - prev[i, 2]) / dt * m
-            vx, vz = ux / msum, uz / msum
-            if kind == 2:
-                q = target[k, 1]
-                wx0, wz0 = pos[q, 0], pos[q, 2]
-            else:
-                wx0, wz0 = sx / msum, sz / msum
-        if direction[k, 3] > 0.0:
-            dx, dz = direction[k, 0], direction[k, 2]
-        else:
-            dx, dz = hx - wx0, hz - wz0
-        norm = math.sqrt(dx * dx + dz * dz)
-        if norm > 1e-9:
-            dx, dz = dx / norm, dz / norm
-        else:
-            dx = dz = 0.0
-        ax = wx0 + stop[k] * dx
-        az = wz0 + stop[k] * dz
-        dist = math.hypot(hx - wx0, hz - wz0)
-        distance[k] = dist
-        improved[k] = 0
-        if dist <= stop[k] + slack:
-            walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
-            status[k] = ARRIVED
-            continue
-        if dist < best[c] - 0.1:
-            best[c] = dist
-            best_at[c] = now
-            improved[k] = 1
-        elif now - best_at[c] > stall:
-            walk[c, 0] = walk[c, 1] = walk[c, 2] = 0.0
-            status[k] = STUCK
-            continue
-        if mutual[k] and now - best_at[c] > squeeze_after:
-            squeeze_until[c] = now + squeeze_hold
-            improved[k] = 1
-        squeezing = mutual[k] != 0 and now < squeeze_until[c]
-        push = repulsion * squeeze if squeezing else repulsion
-        # what is no obstacle: itself, the target, what it holds, and what those hold
-        skip[0] = me[k]
-        n_skip = 1
-        if tb >= 0:
-            skip[n_skip] = tb
-            n_skip += 1
-        for g in range(n_grabs):
-            if grab_holder[g] == me[k]:
-                skip[n_skip] = grab_held[g]
-                n_skip += 1
-        excluded = n_skip  # skip[1:excluded]: the target and what it holds; what those hold goes too
-        for g in range(n_grabs):
-            for s in range(1, excluded):
-                if skip[s] == grab_holder[g]:
-                    skip[n_skip] = grab_held[g]
-                    n_skip += 1
-                    break
-        n_obs = 0
-        for w in range(len(wall_body)):
-            b = wall_body[w]
-            skipped = False
-            for s in range(n_skip):
-                if skip[s] == b:
-                    skipped = True
-            if skipped or math.hypot(hx - cx[b], hz - cz[b]) - math.sqrt(spread[b]) > cutoff:
-                continue
-            near = np.inf
-            nx = nz = 0.0
-            for e in range(wall_start[w], wall_start[w + 1]):
-                j = wall_links[e]
-                a0, a2 = pos[link_a[j], 0], pos[link_a[j], 2]
-                bx, bz = pos[link_b[j], 0] - a0, pos[link_b[j], 2] - a2
-                t = ((hx - a0) * bx + (hz - a2) * bz) / max(bx * bx + bz * bz, 1e-12)
-                t = min(max(t, 0.0), 1.0)
-                qx, qz = a0 + t * bx, a2 + t * bz
-                d = math.sqrt((qx - hx) ** 2 + (qz - hz) ** 2)
-                if d < near:
-                    near, nx, nz = d, qx, qz
-            if near < cutoff:
-                obstacles[n_obs, 0], obstacles[n_obs, 1], obstacles[n_obs, 2] = nx, hy, nz
-                n_obs += 1
-        for b in wide:
-            skipped = False
-            for s in range(n_skip):
-                if skip[s] == b:
-                    skipped = True
-            if skipped:
-                continue
-            ox, oz = hx - cx[b], hz - cz[b]
-            reach = math.sqrt(ox * ox + oz * oz)
-            radius = math.sqrt(spread[b])
-            if reach - radius < cutoff:
-                if reach > radius:
-                    ox, oz = ox * (radius / reach), oz * (radius / reach)
-                else:
-                    ox = oz = 0.0
-                obstacles[n_obs, 0], obstacles[n_obs, 2] = cx[b] + ox, cz[b] + oz
-                obstacles[n_obs, 1] = hy
-                n_obs += 1
-        count = nearest_obstacle_nodes(pos, node_body, n_nodes, grid_start, grid_entries, cell, hx, hz,
-                                       cutoff, step_over, blocked, skip[:n_skip], slot, scratch,
-                                       found)  # fmt: skip
-        for e in range(count):
-            i = found[e]
-            obstacles[n_obs, 0], obstacles[n_obs, 1], obstacles[n_obs, 2] = pos[i, 0], pos[i, 1], pos[i, 2]
-            n_obs += 1
-        gx, gz = approach_field(hx, hz, ax, az, obstacles, n_obs, speed, push, cutoff, min_sq,
-                                curl[k] != 0, fade)  # fmt: skip
-        if kind != 0 and not squeezing:  # pursuit: match a moving target's pace on top of closing in
-            gx += vx
-            gz += vz
-            pace = math.sqrt(gx * gx + gz * gz)
-            if pace > speed:
-                gx *= speed / pace
-                gz *= speed / pace
-        if not (math.isfinite(gx) and math.isfinite(gz)) or math.sqrt(gx * gx + gz * gz) > max_speed[k]:
-            walk[c, 0], walk[c, 2] = gx, gz
-            status[k] = CHECK
-            continue
-        walk[c, 0] = gx
-        walk[c, 1] = 0.0
-        walk[c, 2] = gz
-        status[k] = SAT if mode[c] == SIT else WALKING
-
-
-def _wall_table(walls: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The static bodies of :func:`_footprints` as arrays: bodies, offsets, their links (CSR)."""
-    bodies = np.array(list(walls), dtype=np.int64)
-    sizes = [len(rows) for rows in walls.values()]
-    start = np.zeros(len(bodies) + 1, dtype=np.int64)
-    start[1:] = np.cumsum(sizes)
-    links = np.concatenate(list(walls.values())).astype(np.int64) if walls else np.zeros(0, dtype=np.int64)
-    return bodies, start, links
-
-
 #: Gathering: a stalled walker ends "done" when another character stands still this near it
 #: (m at 1.75 m tall, plus 0.3 m), nearer the target by at least SETTLE_AHEAD - it is as
 #: close as the others allow. Still: its pelvis slower than SETTLE_STILL.
@@ -337,8 +163,13 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
 
     Fails the goal when it stalls. ``direction`` (a ground vector) makes it arrive from
     that side of the target; by default it comes from where it is.
+
+    The steering kernel's one-row batch (:func:`~twig_ecs.systems.control.steer.steer_rows`):
+    the target's point and the direction are found here, the walk vector there, and a
+    named target's pace is added here (numpy's arithmetic, as before the kernel steered it).
     """
     memory = goal.memory
+    scene = character.scene
     here = character.position
     where = target_point(character, target)
     if direction is None:
@@ -346,29 +177,47 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
     direction = np.asarray(direction, dtype=np.float64) * np.array([1.0, 0.0, 1.0])
     norm = float(np.linalg.norm(direction))
     direction = direction / norm if norm > 1e-9 else np.zeros(3)
-    aim = where + stop_distance * direction
-    distance = ground_distance(here, where)
-    if distance <= stop_distance + ARRIVE_SLACK:
+    ignore = set(exclude) | ({target} if isinstance(target, str) else set())
+    ch = scene.state.characters
+    row = walkers(1)
+    row.pelvis[0] = ch.nodes[character.character_row, PELVIS]
+    row.me[0] = character.body.index
+    row.point[0] = where
+    row.stop[0] = stop_distance
+    row.arrive[0] = stop_distance + ARRIVE_SLACK
+    row.direction[0] = (direction[0], direction[1], direction[2], ALONG_UNIT)
+    row.curl[0] = curl
+    if speed is not None:
+        row.speed[0] = speed
+    row.stall[0] = STALL_TIME
+    row.squeeze[0] = squeeze
+    skip = [scene.entity(name).body.index for name in sorted(ignore) if scene.has_entity(name)]
+    row = row._replace(skip_bodies=np.array(skip, dtype=np.int64), skip_count=np.array([len(skip)]))
+    before = (memory.get("best", np.inf), memory.get("best_at", scene.time),
+              memory.get("squeeze_until", -np.inf))  # fmt: skip
+    row.best[0], row.best_at[0], row.squeeze_until[0] = before
+    walk = np.zeros((1, 3))
+    me = character.character_row
+    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=len(skip)), row, _GAINS, walk,
+               ch.mode[me : me + 1], scene.time, scene.dt)  # fmt: skip
+    status, distance = row.status[0], float(row.distance[0])
+    if status == ARRIVED:
         character.stop()
         return True
-    scene = character.scene
-    if distance < memory.get("best", np.inf) - 0.1:
+    if row.best[0] != before[0]:
         memory["best"], memory["best_at"] = distance, scene.time
-    elif scene.time - memory.setdefault("best_at", scene.time) > STALL_TIME:
+    else:
+        memory.setdefault("best_at", scene.time)
+    if row.squeeze_until[0] != before[2]:
+        memory["squeeze_until"] = float(row.squeeze_until[0])
+    if status == STUCK:
         character.stop()
         if settle and crowded_out(character, where):
             return True
         character.scene.end_goal(character, goal, False, f"stuck {distance:.2f} m from the target")
         return False
-    ignore = set(exclude) | ({target} if isinstance(target, str) else set())
-    params = SteeringParams(curl=curl) if speed is None else SteeringParams(curl=curl, speed=speed)
-    if squeeze and scene.time - memory["best_at"] > SQUEEZE_AFTER:
-        memory["squeeze_until"] = scene.time + SQUEEZE_HOLD
-    squeezing = squeeze and scene.time < memory.get("squeeze_until", -np.inf)
-    if squeezing:  # no headway for a while: squeeze through
-        params = dataclasses.replace(params, repulsion=params.repulsion * SQUEEZE)
-    obstacles = obstacles_near(character, ignore, params.cutoff, here)
-    walk = approach_velocity(here, aim, obstacles, params)
+    walk = walk[0].copy()
+    squeezing = squeeze and scene.time < row.squeeze_until[0]
     if isinstance(target, str) and not squeezing:
         # pursuit: match a moving target's pace on top of closing in, or one that walks
         # away is never caught (the field slows down over the last metre); not while
@@ -376,38 +225,55 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
         # drift off together
         walk = walk + scene.entity(target).velocity * np.array([1.0, 0.0, 1.0])
         pace = float(np.linalg.norm(walk))
-        if pace > params.speed:
-            walk *= params.speed / pace
+        if pace > row.speed[0]:
+            walk *= row.speed[0] / pace
     character.walk(walk)
     return False
 
 
-#: :func:`steer_goals`'s ``params``: the approach field's gains and the thresholds above.
-_GOAL_PARAMS = np.array([SteeringParams().speed, SteeringParams().repulsion, SteeringParams().cutoff,
-                         SteeringParams().min_sq, SteeringParams().fade, STEP_OVER, STALL_TIME, ARRIVE_SLACK,
-                         STEER_CELL, SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD])  # fmt: skip
+def grab_pairs(world) -> tuple[np.ndarray, np.ndarray]:
+    """(holder, held) body rows of every grab joint a character holds by: what it holds is
+    no obstacle to its steering (nor what its target holds)."""
+    holds = [(world.component_for_entity(e, Body).index, joint.held)
+             for e, character in world.get_component(Character) if character.holding
+             for joint in (world.try_component(g, GrabJoint) for g in character.holding.values())
+             if joint is not None]  # fmt: skip
+    holder = [b for b, held in holds if world.has_component(held, Body)]
+    held = [world.component_for_entity(h, Body).index for _, h in holds if world.has_component(h, Body)]
+    return np.array(holder, dtype=np.int64), np.array(held, dtype=np.int64)
 
 
-@dataclass
-class _Batch:
-    """The arrays :func:`steer_goals` reads for one set of approach goals, packed when the set
-    (or the store's rows) changes: per-character Python only when a goal starts or ends."""
+#: The field's gains and the squeeze's figures (:func:`steer_rows`).
+_GAINS = gains(SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD)
 
-    key: tuple = ()
-    setups: dict = field(default_factory=dict)  # goal id -> its packed row (see Approach._setup)
-    rows: list = field(default_factory=list)  # per batch row: (character row, entity, goal)
-    fallback: list = field(default_factory=list)  # (entity, goal): steered by Approach.act
-    arrays: dict = field(default_factory=dict)
-    best: np.ndarray = field(default_factory=lambda: np.full(0, np.inf))
-    best_at: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    squeeze_until: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+#: An approach goal's row in the behaviour's table (:meth:`Approach._setup` makes it): where it
+#: steers from, to what, how; and its stall clock (a copy of the goal's memory, which
+#: snapshots keep: the kernel updates the row, the row updates the memory).
+_GOAL_ROW = {
+    "pelvis": Column(np.int64),
+    "me": Column(np.int64),  # its body row
+    "target": Column(np.int64, (5,)),  # (kind, pelvis node, first node, node count, body)
+    "point": Column(np.float64, (3,)),
+    "stop": Column(np.float64),
+    "arrive": Column(np.float64),  # the stop distance and ARRIVE_SLACK
+    "skip": Column(np.int64, ragged=True),  # the target's body: no obstacle
+    "direction": Column(np.float64, (4,)),  # (x, y, z, how: steer.FROM_HERE or steer.ALONG)
+    "curl": Column(np.uint8),
+    "max_speed": Column(np.float64),
+    "gaze": Column(np.int64),  # node to look at; -2: a target that moves (looked at in Python); -1: none
+    "arms": Column(object),  # "hug", "grapple", "reach" or None
+    "best": Column(np.float64),
+    "best_at": Column(np.float64),
+    "squeeze_until": Column(np.float64),
+}
 
 
 @register
 class Approach(Behavior):
     """Walk to a target (an entity or a point) and stop at a distance from it.
 
-    A batch behaviour: every character it wins is steered by one :func:`steer_goals`
+    A batch behaviour: every character it wins is steered by one :func:`steer_rows`
     call; a goal is looked at in Python when it starts (:meth:`_setup`) and ends.
     """
 
@@ -440,10 +306,9 @@ class Approach(Behavior):
         if steer_to(character, goal, target, p["stop_distance"], p["direction"], p["curl"], settle=True):
             self.finish(character, goal)
 
-    def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
-        """One goal's packed row: (pelvis, body, target (kind, node, first, count, body), point,
-        stop, direction (x, y, z, set), curl, max speed, gaze node, arms); None for a
-        target that is gone (the per-character path then says what happens)."""
+    def _setup(self, row: int, entity: int, goal: Goal) -> dict | None:
+        """One goal's row of the table (see ``_GOAL_ROW``); None for a target that is gone
+        (the per-character path then says what happens)."""
         scene = self.scene
         ch = scene.state.characters
         p = goal.params
@@ -472,97 +337,78 @@ class Approach(Behavior):
             direction = (float(d[0]), 0.0, float(d[2]), 1.0)
         me = self.world.component_for_entity(entity, Character)
         arms = p["arms"] if (p["arms"] != "reach" or kind != 0) else None
-        return (int(ch.nodes[row, PELVIS]), int(ch.body[row]), (kind, node, first, count, tbody), point,
-                float(p["stop_distance"]), direction, bool(p["curl"]), float(me.max_speed), gaze,
-                arms)  # fmt: skip
+        memory = goal.memory  # the stall clock: the goal's memory keeps it (snapshots do), a copy here
+        return dict(pelvis=int(ch.nodes[row, PELVIS]), me=int(ch.body[row]),
+                    target=(kind, node, first, count, tbody), point=point, stop=float(p["stop_distance"]),
+                    arrive=float(p["stop_distance"]) + ARRIVE_SLACK, skip=[tbody] if tbody >= 0 else [],
+                    direction=direction, curl=bool(p["curl"]), max_speed=float(me.max_speed), gaze=gaze,
+                    arms=arms, best=memory.get("best", np.inf), best_at=memory.get("best_at", scene.time),
+                    squeeze_until=memory.get("squeeze_until", -np.inf))  # fmt: skip
 
-    def _pack(self, packed: _Batch, key: tuple, rows: list[int], entities: list[int], goals: list) -> None:
-        """Gather the goals' packed rows into the kernel's arrays (when the set of goals changes)."""
-        scene = self.scene
-        state = scene.state
-        if packed.key[1:] != key[1:]:  # rows moved, or another store: every goal again
-            packed.setups.clear()
-        live = set(key[0])
-        for gid in [g for g in packed.setups if g not in live]:
-            del packed.setups[gid]
-        n_chars = state.characters.count
-        if len(packed.best) < n_chars:
-            grow = n_chars - len(packed.best)
-            packed.best = np.concatenate([packed.best, np.full(grow, np.inf)])
-            packed.best_at = np.concatenate([packed.best_at, np.zeros(grow)])
-            packed.squeeze_until = np.concatenate([packed.squeeze_until, np.full(grow, -np.inf)])
-        packed.rows, packed.fallback = [], []
-        setups = []
-        for row, entity, goal in zip(rows, entities, goals, strict=True):
-            if goal is None:
-                continue
-            setup = packed.setups.get(goal.id)
-            if setup is None:
-                setup = self._setup(row, entity, goal)
-                if setup is None:
-                    packed.fallback.append((entity, goal))
-                    continue
-                packed.setups[goal.id] = setup
-                # the stall clock lives in the goal's memory (snapshots keep it); a copy by row here
-                packed.best[row] = goal.memory.get("best", np.inf)
-                packed.best_at[row] = goal.memory.get("best_at", scene.time)
-                packed.squeeze_until[row] = goal.memory.get("squeeze_until", -np.inf)
-            packed.rows.append((row, entity, goal))
-            setups.append(setup)
-        n = len(setups)
-        a = packed.arrays
-        a["crows"] = np.array([r for r, _, _ in packed.rows], dtype=np.int64)
-        a["pelvis"] = np.array([s[0] for s in setups], dtype=np.int64)
-        a["me"] = np.array([s[1] for s in setups], dtype=np.int64)
-        a["target"] = np.array([s[2] for s in setups], dtype=np.int64).reshape(n, 5)
-        a["point"] = np.array([s[3] for s in setups], dtype=np.float64).reshape(n, 3)
-        a["stop"] = np.array([s[4] for s in setups], dtype=np.float64)
-        a["direction"] = np.array([s[5] for s in setups], dtype=np.float64).reshape(n, 4)
-        a["curl"] = np.array([s[6] for s in setups], dtype=np.uint8)
-        a["max_speed"] = np.array([s[7] for s in setups], dtype=np.float64)
-        gaze = [(k, s[8]) for k, s in enumerate(setups) if s[8] != -1]
-        a["gaze_rows"] = np.array([a["crows"][k] for k, g in gaze if g >= 0], dtype=np.int64)
-        a["gaze_nodes"] = np.array([g for _, g in gaze if g >= 0], dtype=np.int64)
-        a["gaze_moving"] = [k for k, g in gaze if g == -2]
+    def _table(self) -> RowTable:
+        """This behaviour's table of approach goals (a cache: the goals' memories are the state)."""
+        table = self.scratch.get("goals")
+        if table is None:
+            table = self.scratch["goals"] = RowTable(**_GOAL_ROW)
+        return table
+
+    def _pack(self, table: RowTable, rows: list[int], entities: list[int], goals: list) -> dict:
+        """The kernel's arrays derived from the table's rows (when the set of goals changes)."""
+        a = {}
+        k_rows = table.positions
+        a["crows"] = np.array(rows, dtype=np.int64)[k_rows] if len(k_rows) else np.zeros(0, dtype=np.int64)
+        a["entries"] = [(rows[i], entities[i], goals[i]) for i in k_rows]
+        a["fallback"] = [(entities[i], goals[i]) for i in table.missing]
+        gaze, arms_of = table["gaze"], table["arms"]
+        looked = np.flatnonzero(gaze >= 0)
+        a["gaze_rows"], a["gaze_nodes"] = a["crows"][looked], gaze[looked]
+        a["gaze_moving"] = np.flatnonzero(gaze == -2).tolist()
         for arms in ("hug", "grapple", "reach"):
-            picked = [k for k, s in enumerate(setups) if s[9] == arms and (arms != "reach" or s[8] >= 0)]
+            picked = [
+                k for k in range(len(table)) if arms_of[k] == arms and (arms != "reach" or gaze[k] >= 0)
+            ]
             a[arms] = a["crows"][picked]
             if arms == "reach":
-                a["reach_nodes"] = np.array([setups[k][8] for k in picked], dtype=np.int64)
-        a["reach_moving"] = [k for k, s in enumerate(setups) if s[9] == "reach" and s[8] == -2]
-        holds = [(self.world.component_for_entity(e, Body).index, joint.held)
-                 for e, character in self.world.get_component(Character) if character.holding
-                 for joint in (self.world.try_component(g, GrabJoint) for g in character.holding.values())
-                 if joint is not None]  # fmt: skip
-        holder = [b for b, held in holds if self.world.has_component(held, Body)]
-        a["grab_holder"] = np.array(holder, dtype=np.int64)
-        a["grab_held"] = np.array([self.world.component_for_entity(held, Body).index for _, held in holds
-                                   if self.world.has_component(held, Body)], dtype=np.int64)  # fmt: skip
-        a["skip"] = np.empty(2 + 2 * len(holder), dtype=np.int64)
+                a["reach_nodes"] = gaze[picked]
+        a["reach_moving"] = [k for k in range(len(table)) if arms_of[k] == "reach" and gaze[k] == -2]
+        a["holds"] = grab_pairs(self.world)  # (as of the packing, like the rest)
         # two characters approaching each other: each copies the other's dithering (pursuit),
         # the case that squeezes (see SQUEEZE)
-        aims = {s[1]: s[2][4] for s in setups if s[2][0] == 2}
-        a["mutual"] = np.array([s[2][0] == 2 and aims.get(s[2][4]) == s[1] for s in setups], dtype=np.uint8)
-        for name, dtype in (("status", np.int64), ("distance", np.float64), ("improved", np.uint8)):
-            a[name] = np.empty(n, dtype=dtype)
-        packed.key = key
+        target, me = table["target"], table["me"]
+        aims = {int(me[k]): int(target[k, 4]) for k in range(len(table)) if target[k, 0] == 2}
+        a["mutual"] = np.array([target[k, 0] == 2 and aims.get(int(target[k, 4])) == me[k]
+                                for k in range(len(table))], dtype=np.uint8)  # fmt: skip
+        n = len(table)
+        a["walkers"] = walkers(n)._replace(
+            crows=a["crows"], pelvis=table["pelvis"], me=table["me"], target=table["target"],
+            point=table["point"], stop=table["stop"], arrive=table["arrive"], direction=table["direction"],
+            curl=table["curl"],
+            max_speed=table["max_speed"], stall=np.full(n, STALL_TIME), squeeze=a["mutual"],
+            skip_bodies=table["skip"], skip_start=table["skip_start"], skip_count=table["skip_count"],
+            best=table["best"], best_at=table["best_at"], squeeze_until=table["squeeze_until"],
+        )  # fmt: skip
+        return a
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
-        """Steer every approaching character in one :func:`steer_goals` call; end goals that
+        """Steer every approaching character in one :func:`steer_rows` call; end goals that
         arrived or stalled, and do the rare per-character parts (a sitter stands up)."""
         scene = self.scene
         state = scene.state
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        packed = self.scratch.get("packed")  # rebuilt from the goals when they change
-        if packed is None:
-            packed = self.scratch["packed"] = _Batch()
-        key = (tuple(-1 if g is None else g.id for g in goals), state.version, state.nodes.count,
-               state.bodies.count, id(state))  # fmt: skip
-        if key != packed.key:
-            self._pack(packed, key, rows, entities, goals)
-        a = packed.arrays
-        ch, nodes, links = state.characters, state.nodes, state.links
+        table = self._table()
+        live = [k for k, g in enumerate(goals) if g is not None]
+        layout = (state.version, state.nodes.count, state.bodies.count, id(state))
+        rows = [rows[k] for k in live]
+        entities = [entities[k] for k in live]
+        goals = [goals[k] for k in live]
+        if table.sync(
+            [g.id for g in goals], layout, lambda i, _: self._setup(rows[i], entities[i], goals[i])
+        ):
+            self.scratch["arrays"] = self._pack(table, rows, entities, goals)
+        a = self.scratch["arrays"]
+        entries = a["entries"]
+        ch = state.characters
         # what the per-character act writes before it steers: gaze and arms
         if len(a["gaze_rows"]):
             ch.gaze_node[a["gaze_rows"]] = a["gaze_nodes"]
@@ -575,53 +421,41 @@ class Approach(Behavior):
             ch.arm_node[a["reach"]] = a["reach_nodes"][:, None]
             ch.arm_mode[a["reach"]] = REACH
         for k in a["gaze_moving"]:
-            row, entity, goal = packed.rows[k]
+            row, entity, goal = entries[k]
             scene.character_handle(entity).look_at(goal.params["target"])
         for k in a["reach_moving"]:
-            row, entity, goal = packed.rows[k]
+            row, entity, goal = entries[k]
             scene.character_handle(entity).reach(goal.params["target"], hand="both")
-        if len(packed.rows):
-            index = SpatialIndex.of(scene)
-            start, entries, slot, scratch, found = index.grid(scene)
-            cx, cz, spread, wide, walls, blocked = index.footprints(scene)
-            wall_body, wall_start, wall_links = _wall_table(walls)
-            obstacles = np.empty((len(walls) + int(wide.sum()) + state.bodies.count, 3))
-            steer_goals(nodes.pos, nodes.prev, nodes.mass, nodes.body, nodes.count, start, entries,
-                        a["crows"], a["pelvis"], a["me"], a["target"], a["point"], a["stop"], a["direction"],
-                        a["curl"], a["max_speed"], ch.mode, packed.best, packed.best_at,
-                        packed.squeeze_until, scene.time, scene.dt,
-                        _GOAL_PARAMS,
-                        cx, cz, spread, np.flatnonzero(wide), blocked, wall_body, wall_start, wall_links,
-                        links.a, links.b,
-                        a["grab_holder"], a["grab_held"], slot, scratch, found, obstacles, a["skip"], ch.walk,
-                        a["status"], a["distance"], a["improved"], a["mutual"])  # fmt: skip
-            for k in np.flatnonzero(a["improved"]):
-                row, _, goal = packed.rows[k]
-                goal.memory.update(best=float(packed.best[row]), best_at=float(packed.best_at[row]))
-                if packed.squeeze_until[row] > -np.inf:
-                    goal.memory["squeeze_until"] = float(packed.squeeze_until[row])
-            for k in np.flatnonzero(a["status"] != WALKING):
-                row, entity, goal = packed.rows[k]
+        if len(entries):
+            w = a["walkers"]
+            at = around(scene, a["holds"], extra_skip=1)
+            steer_rows(at, w, _GAINS, ch.walk, ch.mode, scene.time, scene.dt)
+            for k in np.flatnonzero(w.improved):
+                _, _, goal = entries[k]
+                goal.memory.update(best=float(w.best[k]), best_at=float(w.best_at[k]))
+                if w.squeeze_until[k] > -np.inf:
+                    goal.memory["squeeze_until"] = float(w.squeeze_until[k])
+            for k in np.flatnonzero(w.status != WALKING):
+                row, entity, goal = entries[k]
                 character = scene.character_handle(entity)
-                status = a["status"][k]
+                status = w.status[k]
                 if status == ARRIVED:
                     self.finish(character, goal)
                 elif status == STUCK and crowded_out(character, _where(character, goal)):
                     self.finish(character, goal)  # as close as the others allow: gathered round it
                 elif status == STUCK:
-                    self.finish(character, goal, False, f"stuck {a['distance'][k]:.2f} m from the target")
+                    self.finish(character, goal, False, f"stuck {w.distance[k]:.2f} m from the target")
                 elif status == SAT:
                     character.stand()
                 else:  # CHECK: a walk vector it cannot do - the handle says why
                     character.walk(ch.walk[row].copy())
-        for entity, goal in packed.fallback:
+        for entity, goal in a["fallback"]:
             self.act(scene.character_handle(entity), self.world.component_for_entity(entity, Mind), goal, dt)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Stand still, arms down, looking ahead."""
-        packed = self.scratch.get("packed")
-        if packed is not None and goal is not None:
-            packed.setups.pop(goal.id, None)  # resumed later: the stall clock comes from its memory
+        if goal is not None:
+            self._table().forget(goal.id)  # resumed later: the stall clock comes from its memory
         character.stop()
         character.look_at(None)
         character.pose("hang")

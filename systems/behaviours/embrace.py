@@ -198,11 +198,6 @@ class Embrace(Behavior):
     name = "embrace"
     batch = True
 
-    def setup(self) -> None:
-        """Who hugs whom, looked up again when the hug goals or the store's rows change."""
-        # hugged entity: (hugger entity, hug phase, hugger's character row), this step
-        self.hugged_by: dict[int, tuple[int, str, int]] = {}
-
     def _pairs(self) -> list[tuple]:
         """Per pair: hugged entity, its mind, hugged row, hugger entity, hugger row, hug goal -
         looked up again when the hug goals or the store's rows change."""
@@ -236,7 +231,11 @@ class Embrace(Behavior):
     def run(self, ctx: StepContext) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
         pairs = self._pairs()
-        self.hugged_by = {p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs}
+        # hugged entity: (hugger entity, hug phase, hugger's character row), this step (made
+        # again each step from the hug goals: a cache, which a snapshot does not keep)
+        hugged_by = self.scratch["hugged_by"] = {
+            p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs
+        }
         if not pairs:
             return
         pos, nodes = ctx.state.nodes.pos, ctx.state.characters.nodes
@@ -247,7 +246,7 @@ class Embrace(Behavior):
             hugged, mind = pair[0], pair[1]
             if not mind.autonomous:
                 continue  # a scripted character does only what it is told
-            near = NEAR if self.hugged_by[hugged][1] in ("wrap", "hold") else TURN_NEAR
+            near = NEAR if hugged_by[hugged][1] in ("wrap", "hold") else TURN_NEAR
             if gap < near:
                 mind.activations[self.name] = EMBRACE
 
@@ -260,9 +259,10 @@ class Embrace(Behavior):
         scene = self.scene
         state = scene.state
         ch = state.characters
-        huggers = np.array([self.hugged_by[e][2] for e in entities], dtype=np.int64)
+        hugged_by = self.scratch["hugged_by"]
+        huggers = np.array([hugged_by[e][2] for e in entities], dtype=np.int64)
         crows = np.array(rows, dtype=np.int64)
-        phase = np.array([PHASES.get(self.hugged_by[e][1], 0) for e in entities], dtype=np.int64)
+        phase = np.array([PHASES.get(hugged_by[e][1], 0) for e in entities], dtype=np.int64)
         ch.gaze_node[crows] = ch.nodes[huggers, HEAD]  # look at the hugger's head
         ch.gaze_mode[crows] = GAZE_NODE
         stoop_at = np.empty((len(rows), 3))

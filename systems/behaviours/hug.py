@@ -54,6 +54,7 @@ from twig_ecs.kernelmath import (
     SPINE,
     clamp,
 )
+from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.behaviours.approach import steer_to
@@ -269,6 +270,16 @@ def hug_arms(pos, prev, link_a, link_b, link_radius, nodes, scale, mode, walk, l
 # fmt: on
 
 
+#: A hugger's row in the behaviour's table while its arms go round or hold (:meth:`Hug._setup`):
+#: the pair's fixed figures, looked up once per goal.
+_HUG_ROW = {
+    "partner": Column(np.int64),  # the partner's character row
+    "surface": Column(np.float64, (3,)),  # its thickest capsule at its neck, spine and pelvis (m)
+    "gap_links": Column(np.int64, ragged=True),  # its capsules the hugger's torso stops at
+    "duration": Column(np.float64),  # s to hold
+}
+
+
 @register
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
@@ -409,10 +420,10 @@ class Hug(Behavior):
             if lead_goal.memory.get("phase") == "hold" and goal.memory.get("phase") != "hold":
                 goal.memory["phase"], goal.memory["since"] = "hold", scene.time
 
-    def _setup(self, row: int, entity: int, goal: Goal) -> tuple | None:
-        """One goal's fixed figures: (partner's character row, its thickest capsule at neck,
-        spine and pelvis, the link rows of its body the torso stops at); None when the
-        partner is gone (the goal has failed)."""
+    def _setup(self, row: int, entity: int, goal: Goal) -> dict | None:
+        """One goal's row of the table (``_HUG_ROW``): its partner's character row, the
+        partner's thickest capsule at neck, spine and pelvis, the link rows of its body the
+        torso stops at, how long to hold; None when the partner is gone (the goal has failed)."""
         other = self._partner(self.scene.character_handle(entity), goal)
         if other is None:
             return None
@@ -429,53 +440,29 @@ class Hug(Behavior):
             at = body.node_index(name)
             touching = rows[(links.a[rows] == at) | (links.b[rows] == at)]
             surface.append(float(links.radius[touching].max()) if len(touching) else 0.0)
-        return self.world.component_for_entity(other.entity, Character).index, tuple(surface), torso
+        return dict(partner=self.world.component_for_entity(other.entity, Character).index, surface=surface,
+                    gap_links=torso, duration=goal.params["duration"])  # fmt: skip
 
-    def _pack(self, key: tuple, close: list) -> tuple[dict, list]:
-        """The kernel's fixed arrays for this set of goals (when it, or the store's rows, change),
-        and the goals packed: those whose partner has gone have failed and are left out."""
-        packed = self.scratch.get("packed")  # rebuilt from the goals when they change
-        if packed is None or packed["key"][1:] != key[1:]:
-            packed = self.scratch["packed"] = {"key": (), "setups": {}}
-        setups = packed["setups"]
-        live = set(key[0])
-        for gid in [g for g in setups if g not in live]:
-            del setups[gid]
-        for row, entity, goal in close:
-            if goal.id not in setups:
-                setup = self._setup(row, entity, goal)
-                if setup is not None:
-                    setups[goal.id] = setup
-        if len(setups) < len(close):
-            close = [c for c in close if c[2].id in setups]
-            key = (tuple(goal.id for _, _, goal in close), *key[1:])
-            if not close:
-                return packed, close
-        chosen = [setups[goal.id] for _, _, goal in close]
-        counts = np.array([len(s[2]) for s in chosen], dtype=np.int64)
-        packed.update(
-            key=key,
-            crows=np.array([row for row, _, _ in close], dtype=np.int64),
-            partners=np.array([s[0] for s in chosen], dtype=np.int64),
-            surface=np.array([s[1] for s in chosen], dtype=np.float64).reshape(len(close), 3),
-            gap_links=np.concatenate([s[2] for s in chosen]).astype(np.int64),
-            gap_start=np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64),
-            gap_count=counts,
-            duration=np.array([goal.params["duration"] for _, _, goal in close], dtype=np.float64),
-        )
-        return packed, close
+    def _table(self) -> RowTable:
+        """This behaviour's table of huggers wrapping or holding (a cache of their partners' figures)."""
+        table = self.scratch.get("close")
+        if table is None:
+            table = self.scratch["close"] = RowTable(**_HUG_ROW)
+        return table
 
     def _wrap_and_hold(self, close: list, dt: float) -> None:
         scene = self.scene
         state = scene.state
         ch = state.characters
-        key = (tuple(goal.id for _, _, goal in close), state.version, id(state))
-        packed = self.scratch.get("packed")
-        if packed is None or packed["key"] != key:
-            packed, close = self._pack(key, close)
+        table = self._table()
+        table.sync([goal.id for _, _, goal in close], (state.version, id(state)),
+                   lambda i, _: self._setup(*close[i]))  # fmt: skip
+        if table.missing:  # those whose partner has gone have failed: left out
+            close = [close[i] for i in table.positions]
             if not close:
                 return
-        crows, partners = packed["crows"], packed["partners"]
+        crows = np.array([row for row, _, _ in close], dtype=np.int64)
+        partners = table["partner"]
         ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head
         ch.gaze_mode[crows] = GAZE_NODE
         phase = np.array([PHASES[goal.memory["phase"]] for _, _, goal in close], dtype=np.int64)
@@ -486,12 +473,12 @@ class Hug(Behavior):
         hug_arms(state.nodes.pos, state.nodes.prev, links.a, links.b, links.radius, ch.nodes, ch.scale,
                  ch.mode, ch.walk, ch.lean, ch.hand_aim, ch.arm_point, ch.arm_node, ch.arm_mode, crows,
                  partners, phase,
-                 packed["surface"], packed["gap_links"], packed["gap_start"], packed["gap_count"], _ROUNDS,
-                 dt, on_back, stoop_at, asks)  # fmt: skip
+                 table["surface"], table["gap_links"], table["gap_links_start"], table["gap_links_count"],
+                 _ROUNDS, dt, on_back, stoop_at, asks)  # fmt: skip
         now = scene.time
         since = np.array([goal.memory["since"] for _, _, goal in close])
         ending = (phase == WRAP) & ((on_back == 2) | (now - since > WRAP_TIME))
-        ending |= (phase == HOLD) & (now - since >= packed["duration"])
+        ending |= (phase == HOLD) & (now - since >= table["duration"])
         for k in np.flatnonzero(ending | (asks != 0)):
             _, entity, goal = close[k]
             character = scene.character_handle(entity)
@@ -510,9 +497,8 @@ class Hug(Behavior):
 
     def stop(self, character, goal: Goal | None) -> None:
         """Arms down (a carried toy stays in its hand) and stand up straight."""
-        packed = self.scratch.get("packed")
-        if packed is not None and goal is not None:
-            packed["setups"].pop(goal.id, None)
+        if goal is not None:
+            self._table().forget(goal.id)
         character.stoop(None)
         character.lean(None)
         lower_hands(character)

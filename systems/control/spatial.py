@@ -282,6 +282,20 @@ class SpatialIndex:
         self._footprints = (scene.frame, result)
         return result
 
+    def wall_links(self, scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The static bodies of :meth:`footprints` as arrays for a kernel: their rows, offsets
+        into their links and the collidable links (CSR); made again only when the walls change."""
+        walls = self.footprints(scene)[4]
+        cached = self.__dict__.get("_wall_links")
+        if cached is not None and cached[0] is walls:
+            return cached[1]
+        bodies = np.array(list(walls), dtype=np.int64)
+        start = np.zeros(len(bodies) + 1, dtype=np.int64)
+        start[1:] = np.cumsum([len(rows) for rows in walls.values()])
+        links = np.concatenate([np.zeros(0, dtype=np.int64), *walls.values()]).astype(np.int64)
+        self._wall_links = (walls, (bodies, start, links))
+        return bodies, start, links
+
     def bodies_near(self, scene, point, radius: float) -> np.ndarray:
         """Body rows (``scene.state.bodies``) with a node within ``radius`` m of ``point`` on
         the ground, in the order of their first such node."""
