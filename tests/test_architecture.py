@@ -228,3 +228,41 @@ def test_every_module_has_a_layer():
         and module not in ("twig_ecs.systems", "twig_ecs.components", "twig_ecs.content")
     )
     assert not unplaced, f"modules in no layer of pyproject's import-linter contract: {unplaced}"
+
+
+#: A named tuple's public API begins with an underscore (``_replace``, ``_fields``, ``_asdict``,
+#: ``_make``): that is not reaching into another module's privates.
+NAMED_TUPLE_API = {"_replace", "_fields", "_asdict", "_make", "_field_defaults"}
+
+
+def private_reads(source: str) -> list[tuple[int, str]]:
+    """(line, code) of every read of another object's or module's private name in ``source``:
+    ``x._name`` where x is not ``self`` or ``cls``, and ``from m import _name``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute):
+            name, owner = node.attr, node.value
+            own = isinstance(owner, ast.Name) and owner.id in ("self", "cls")
+            if name.startswith("_") and not name.startswith("__") and name not in NAMED_TUPLE_API and not own:
+                found.append((node.lineno, ast.unparse(node)))
+        elif isinstance(node, ast.ImportFrom):
+            found += [(node.lineno, f"from {node.module} import {a.name}") for a in node.names
+                      if a.name.startswith("_") and not a.name.startswith("__")]  # fmt: skip
+    return found
+
+
+def test_no_system_reads_a_private_attribute_of_the_scene_esper_or_another_module():
+    # issue 32: systems once read scene._names, patched esper's _components and imported
+    # approach.py's private helpers
+    reads = {
+        str(path.relative_to(ROOT)): hits
+        for path in sorted((ROOT / "systems").rglob("*.py"))
+        if (hits := private_reads(path.read_text(encoding="utf-8")))
+    }
+    assert not reads, reads
+
+
+def test_the_private_read_finder_finds_one():
+    code = "from twig_ecs.systems.behaviours.approach import _grid\nn = scene._names\nt = row._replace(a=1)\n"
+    assert private_reads(code) == [(1, "from twig_ecs.systems.behaviours.approach import _grid"),
+                                   (2, "scene._names")]  # fmt: skip
