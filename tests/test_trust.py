@@ -23,7 +23,7 @@ from twig_ecs.cli import main
 from twig_ecs.errors import TwigError
 from twig_ecs.replay import ReplayError, replay
 from twig_ecs.snapshot import FORMAT_VERSION, MAGIC, SnapshotError
-from twig_ecs.trust import trusting
+from twig_ecs.trust import is_trusted, trusting
 
 PLUGIN = """
 from pathlib import Path
@@ -313,3 +313,25 @@ def test_fuzz_a_crafted_snapshot_runs_nothing(real_structure, pick, name, tag):
         with pytest.raises(SnapshotError):
             Scene.restore(_crafted(tree))
     assert ran == [], ran
+
+
+def test_the_windows_loading_threads_trust_as_the_command_does():
+    # before: `twig play SCENE --trust` with a plug-in file failed on every first run ("run
+    # again with --trust"): the window loads the scene on a thread while the kernels compile,
+    # and a new thread started from a blank context, untrusted
+    import threading
+
+    from twig_ecs.trust import thread_trusting_as_now
+
+    def seen_from(make) -> bool:
+        seen = []
+        thread = make(lambda: seen.append(is_trusted()))
+        thread.start()
+        thread.join()
+        return seen[0]
+
+    with trusting(True):
+        assert seen_from(lambda f: thread_trusting_as_now(f, name="t"))
+        assert not seen_from(lambda f: threading.Thread(target=f)), "(a plain thread: why it failed)"
+    with trusting(False):
+        assert not seen_from(lambda f: thread_trusting_as_now(f, name="t"))

@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import sys
+import threading
 from collections.abc import Iterator
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -63,6 +64,15 @@ def _setting(flag: contextvars.ContextVar[bool], value: bool) -> Iterator[None]:
 def trusting(value: bool = True) -> contextlib.AbstractContextManager[None]:
     """Within the block, files are trusted (``value=True``) or not."""
     return _setting(_TRUSTED, bool(value))
+
+
+def thread_trusting_as_now(target, *, name: str) -> threading.Thread:
+    """A daemon thread that runs ``target`` trusting (and checking) as the caller does now.
+
+    A new thread starts from a blank context: without this, the window's thread that loads
+    the scene while the kernels compile refused ``twig play SCENE --trust``'s plug-in file
+    ("run again with --trust") - on every first run with such a scene."""
+    return threading.Thread(target=contextvars.copy_context().run, args=(target,), name=name, daemon=True)
 
 
 def loading_data() -> contextlib.AbstractContextManager[None]:

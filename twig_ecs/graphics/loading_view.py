@@ -18,6 +18,7 @@ from twig_ecs.graphics.loading import Loading, rest_after_frame
 from twig_ecs.graphics.play_view import PlayView
 from twig_ecs.graphics.slow_motion_view import SlowMotionView
 from twig_ecs.graphics.view import View
+from twig_ecs.trust import thread_trusting_as_now
 
 
 class LoadingView(View):
@@ -35,7 +36,7 @@ class LoadingView(View):
         finished = loading.build.poll()
         if loading.interim and not finished and self.frames > 1 and self._maker is None:
             # the progress panel is up: now the scene, off the window's thread (imports, loading)
-            self._maker = threading.Thread(target=self._make, name="twig-load-scene", daemon=True)
+            self._maker = thread_trusting_as_now(self._make, name="twig-load-scene")
             self._maker.start()
         if self._maker is not None:
             if self._maker.is_alive():

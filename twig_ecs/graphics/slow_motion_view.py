@@ -19,6 +19,7 @@ import time
 from twig_ecs.graphics.loading import Loading, rest_after_frame
 from twig_ecs.graphics.play_view import PlayView
 from twig_ecs.graphics.view import View
+from twig_ecs.trust import thread_trusting_as_now
 
 #: The share of one core the slow-motion steps take (the stepper rests in between): the rest
 #: is left to the compiling workers (resting only 30 ms a frame, the compile took 40% longer).
@@ -41,7 +42,7 @@ class Stepper:
         self.error: BaseException | None = None
         self._stop = threading.Event()
         self._finish = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="twig-slow-motion", daemon=True)
+        self._thread = thread_trusting_as_now(self._run, name="twig-slow-motion")
 
     def start(self) -> None:
         self._thread.start()
