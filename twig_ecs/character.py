@@ -91,6 +91,7 @@ def make_character(scene: SceneView, entity: int, facing: float, spec: Character
     ch.mode[row] = STAND
     a = math.radians(facing)
     ch.head_dir[row] = (math.sin(a), 0.0, math.cos(a))
+    ch.face_dir[row] = ch.head_dir[row]
     rows = range(body.link_start, body.link_start + body.link_count)
     spine = body.node_index("spine")
     for k, shoulder in enumerate(("l_shoulder", "r_shoulder")):
@@ -222,6 +223,12 @@ class CharacterHandle(BodyHandle):
     def head_direction(self) -> np.ndarray:
         """Unit vector the face points along."""
         return self._chars().head_dir[self.character_row].copy()
+
+    @property
+    def face_direction(self) -> np.ndarray:
+        """Unit vector the drawn face points along: :attr:`head_direction`, or an idle glance away
+        from it (``systems/control/glance.py``)."""
+        return self._chars().face_dir[self.character_row].copy()
 
     @property
     def gaze_target(self) -> np.ndarray | None:

@@ -42,7 +42,7 @@ class BodyTrack:
     color: tuple[float, float, float, float]
     height: float  # m, as spawned (the skeleton's scale)
     frames: list[np.ndarray] = field(default_factory=list)
-    #: a character's face direction per frame (its gaze controller's ``head_dir``: the head is one
+    #: a character's face direction per frame (its gaze controller's ``face_dir``: the head is one
     #: node, so where it looks is controller state); None for a body that is no character
     faces: list[np.ndarray] | None = None
 
@@ -135,7 +135,7 @@ class MotionRecorder:
             if track.faces is not None:
                 row = self._character_row(body)  # rows move when bodies are removed
                 assert row is not None, f"'{name}' stopped being a character"
-                track.faces.append(self.scene.state.characters.head_dir[row].copy())
+                track.faces.append(self.scene.state.characters.face_dir[row].copy())
 
     @property
     def frame_count(self) -> int:

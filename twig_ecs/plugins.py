@@ -32,6 +32,7 @@ from twig_ecs.systems.control.arms import ArmsSystem
 from twig_ecs.systems.control.attention import AttentionSystem
 from twig_ecs.systems.control.gait import GaitSystem
 from twig_ecs.systems.control.gaze import GazeSystem
+from twig_ecs.systems.control.glance import GlanceSystem
 from twig_ecs.systems.control.patrol import PatrolSystem
 from twig_ecs.systems.control.posture import PostureSystem
 from twig_ecs.systems.control.respiration import RespirationSystem
@@ -71,12 +72,12 @@ class PhysicsPlugin(Plugin):
 
 
 class ControlPlugin(Plugin):
-    """A character's body control: attention, behaviour selection, patrol, gait, gaze, posture,
-    arms and breathing. Without behaviours every character stands idle, balanced."""
+    """A character's body control: attention, behaviour selection, patrol, gait, glances, gaze,
+    posture, arms and breathing. Without behaviours every character stands idle, balanced."""
 
     name = "control"
-    systems = (GaitSystem, AttentionSystem, SelectBehaviorSystem, PatrolSystem, GazeSystem, PostureSystem,
-               ArmsSystem, RespirationSystem)  # fmt: skip
+    systems = (GaitSystem, AttentionSystem, SelectBehaviorSystem, PatrolSystem, GlanceSystem, GazeSystem,
+               PostureSystem, ArmsSystem, RespirationSystem)  # fmt: skip
 
 
 @cache

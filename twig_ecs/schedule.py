@@ -39,6 +39,7 @@ PIPELINE = (
     "select_behavior",  # control: each character's winner acts (writes the motor targets)
     "patrol",  # control: scripted walking routes
     "gait",  # control: stepping feet towards the walk vector
+    "glance",  # control: idle characters glance about (before gaze turns the face)
     "gaze",  # control: head and eyes (before posture turns the shoulders after the face)
     "posture",  # control: pelvis, spine and balance
     "arms",  # control: reaching hands

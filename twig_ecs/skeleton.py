@@ -13,7 +13,7 @@ offset is the rest distance between its node and its parent's. Per frame:
   twist it carries is its parent's, so the hip bar twists the legs, the shoulder bar the
   arms; a thigh then turns about its own axis to line the knee's hinge up with the plane
   the leg bends in, so the shin bends about one axis, as a rig's knee does;
-- the *head* faces where the character's gaze controller turned its face (``head_dir``:
+- the *head* faces where the character's gaze controller turned its face (``face_dir``:
   the head is one node, so its facing is controller state), its y axis up the neck; a
   body with no face (the ragdoll) keeps the neck's rotation;
 - a *tip* joint (hands, feet: one node each, no bone of their own) keeps its parent's

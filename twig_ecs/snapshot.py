@@ -63,7 +63,8 @@ FORMAT_VERSION = 7  # 2: a scene holds its plugins and an event bus; nodes and l
 # 4: the payload is data (twig_ecs.worlddata: JSON structure + array bytes), no longer a pickle
 # 5: systems live in feature packages (twig_ecs.systems.physics/control/behaviours): classes moved
 # 6: a scene's entity names and goal holders are objects of their own (EntityNames, GoalBook)
-# 7: a wanderer's target is a row of the wander behaviour's table (RowTable), not steer_* columns of the store
+# 7: a wanderer's target is a row of the wander behaviour's table (RowTable), not steer_* columns of the
+#    store; the character table's face_dir and glance columns (glance.py; the same unreleased version)
 _HEAD = struct.Struct(">8sHI")
 _LEN = struct.Struct(">Q")
 _DIGEST = 32

@@ -138,6 +138,9 @@ CHARACTER_FIELDS: dict[str, tuple[type, tuple[int, ...], float]] = {
     "gaze_point": (np.float64, (3,), 0.0),
     "gaze_node": (np.int32, (), -1),
     "head_dir": (np.float64, (3,), 0.0),  # unit vector the face points along
+    "face_dir": (np.float64, (3,), 0.0),  # unit vector the drawn face points along: head_dir and a glance
+    "glance": (np.float64, (2,), 0.0),  # an idle glance's yaw and pitch (rad) from head_dir (0: none)
+    "glance_left": (np.float64, (), 1.5),  # s until the glance or look ahead changes (glance.FIRST_WAIT)
     "arm_mode": (
         np.int32,
         (2,),

@@ -35,8 +35,9 @@ MAX_PITCH = math.radians(60.0)
 
 # fmt: off
 @njit(cache=True, nogil=True)
-def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, head_dir, n_chars, dt):
-    """Turn every character's ``head_dir`` towards its gaze target."""
+def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, glance, head_dir, face_dir, n_chars, dt):
+    """Turn every character's ``head_dir`` towards its gaze target, and the face it is drawn
+    with, ``face_dir``, towards ``head_dir`` turned by its idle ``glance`` (``glance.py``)."""
     for c in range(n_chars):
         nd = nodes[c]
         hd = nd[HEAD]
@@ -80,6 +81,27 @@ def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, head_dir, n
         head_dir[c, 0] = nx / nn
         head_dir[c, 1] = ny / nn
         head_dir[c, 2] = nz / nn
+        # the drawn face: the head's direction, or a glance away from it - only drawn (and
+        # exported): the shoulders and what the character notices go by head_dir
+        want_x, want_y, want_z = head_dir[c, 0], head_dir[c, 1], head_dir[c, 2]
+        if glance[c, 0] != 0.0 or glance[c, 1] != 0.0:
+            turn = math.atan2(want_x, want_z) + glance[c, 0]
+            up = clamp(math.asin(clamp(want_y, -1.0, 1.0)) + glance[c, 1], -MAX_PITCH, MAX_PITCH)
+            want_x = math.sin(turn) * math.cos(up)
+            want_y = math.sin(up)
+            want_z = math.cos(turn) * math.cos(up)
+        cx, cy, cz = face_dir[c, 0], face_dir[c, 1], face_dir[c, 2]
+        angle = math.acos(clamp(cx * want_x + cy * want_y + cz * want_z, -1.0, 1.0))
+        t = 1.0 if angle <= TURN_RATE * dt else TURN_RATE * dt / angle
+        nx = cx + t * (want_x - cx)
+        ny = cy + t * (want_y - cy)
+        nz = cz + t * (want_z - cz)
+        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if nn < 1e-9:
+            nx, ny, nz, nn = want_x, want_y, want_z, 1.0
+        face_dir[c, 0] = nx / nn
+        face_dir[c, 1] = ny / nn
+        face_dir[c, 2] = nz / nn
 # fmt: on
 
 
@@ -95,5 +117,5 @@ class GazeSystem(System):
         ch = s.characters
         if ch.count == 0:
             return
-        control_gaze(s.nodes.pos, ch.nodes, ch.gaze_mode, ch.gaze_point, ch.gaze_node, ch.walk, ch.head_dir,
-                     ch.count, dt)  # fmt: skip
+        control_gaze(s.nodes.pos, ch.nodes, ch.gaze_mode, ch.gaze_point, ch.gaze_node, ch.walk, ch.glance,
+                     ch.head_dir, ch.face_dir, ch.count, dt)  # fmt: skip

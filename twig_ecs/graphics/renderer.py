@@ -413,7 +413,7 @@ class Renderer:
             ch = state.characters
             if ch.count:  # characters' faces point where their gaze controller turned them
                 gaze = np.full((state.bodies.count, 3), np.nan)
-                gaze[ch.body[: ch.count]] = ch.head_dir[: ch.count]
+                gaze[ch.body[: ch.count]] = ch.face_dir[: ch.count]  # (with an idle glance)
                 face_gaze = gaze[n.body[faces.head]]
             fwd, left, up = face_frames(pos, faces, face_gaze)
             r = faces.radius[:, None]
