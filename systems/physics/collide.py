@@ -41,6 +41,9 @@ BROAD_MARGIN = 0.05
 #: A contact pass looks only at candidate pairs this near touching (m), picked again when a
 #: node has moved half as far (:func:`contact_pass`).
 CONTACT_MARGIN = 0.05
+#: A node this far (m) from where it stood when its candidate pairs were last measured has
+#: them measured again: a quarter of the margin, so that none left out can touch (:func:`repick_moved`).
+REPICK_MOVE = 0.25 * CONTACT_MARGIN
 #: Candidate pairs from which the contact passes pick the near ones (fewer: all of them).
 NEAR_FROM = 2048
 #: Closing passes of only joint limits and links after the contact rounds.
@@ -233,18 +236,34 @@ def collider_pairs(col_local, col_mask, col_ignore, n_bodies, lo, hi, body_lo, b
                         pairs[n_pairs, 0] = min(i, j)
                         pairs[n_pairs, 1] = max(i, j)
                     n_pairs += 1
+    most = 0
+    for b in range(n_bodies):
+        most = max(most, body_start[b + 1] - body_start[b])
+    reach_p = np.empty(most, dtype=np.int64)  # q's colliders that reach into p's box, in order
     for k in range(n_bpairs):
         p = bpairs[k, 0]
         q = bpairs[k, 1]
+        # only q's colliders reaching into p's box can overlap one of p's: pick them once
+        # per body pair (each i of p below met all of q's before; the pairs and their order
+        # are the same)
+        n_reach = 0
+        for e2 in range(body_start[q], body_start[q + 1]):
+            j = order[e2]
+            held_by_p = col_ignore[j, 0] == p or col_ignore[j, 1] == p
+            if not held_by_p and _boxes_overlap(lo, hi, j, body_lo, body_hi, p):
+                reach_p[n_reach] = j
+                n_reach += 1
+        if n_reach == 0:
+            continue
         for e1 in range(body_start[p], body_start[p + 1]):
             i = order[e1]
             if col_ignore[i, 0] == q or col_ignore[i, 1] == q:
                 continue  # it holds (or is held by) that body
             if not _boxes_overlap(lo, hi, i, body_lo, body_hi, q):
                 continue
-            for e2 in range(body_start[q], body_start[q + 1]):
-                j = order[e2]
-                if col_ignore[j, 0] == p or col_ignore[j, 1] == p or not _boxes_overlap(lo, hi, i, lo, hi, j):
+            for e2 in range(n_reach):
+                j = reach_p[e2]
+                if not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
                 if col_ignore[j, 0] == -2 - i or col_ignore[j, 1] == -2 - i:
                     continue  # one capsule of what a hand holds and that arm's (see ignore_collider)
@@ -492,55 +511,98 @@ def segment_gap2(pos, a, b, c, d):
 
 
 @njit(cache=True, nogil=True)
-def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
-    """The candidate pairs (first ``n_pairs`` of ``pairs``, in order) whose capsules are
-    within ``margin`` of touching. The broad phase's boxes overlap for many more (a capsule's
-    box is much wider than it; a crowd's bodies stand side by side): a contact pass needs
-    to look only at these while no node has moved ``margin / 2`` since (:func:`contact_pass`)."""
-    near = np.empty((n_pairs, 2), dtype=pairs.dtype)
+def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
+    """Marks in ``is_near`` the candidate pairs (first ``n_pairs`` of ``pairs``) whose capsules
+    are within ``margin`` of touching and lists them in ``near``, in order; returns how many.
+    The broad phase's boxes overlap for many more (a capsule's box is much wider than it; a
+    crowd's bodies stand side by side): a contact pass needs to look only at these
+    (:func:`repick_moved` keeps the list true as nodes move)."""
     n = 0
     for k in range(n_pairs):
         i = pairs[k, 0]
         j = pairs[k, 1]
         reach = col_r[i] + col_r[j] + margin
-        if segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach:
+        is_near[k] = segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach
+        if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
             n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
+    """The candidate pairs (first ``n_pairs`` of ``pairs``, in order) whose capsules are
+    within ``margin`` of touching, and how many (:func:`mark_near` into new arrays)."""
+    near = np.empty((n_pairs, 2), dtype=pairs.dtype)
+    n = mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, np.empty(n_pairs, np.bool_), near)
     return near, n
 
 
+class NearWatch(NamedTuple):
+    """What :func:`repick_moved` keeps between contact passes: which candidates are near, where
+    each node stood when its pairs were last measured, and scratch flags."""
+
+    is_near: np.ndarray  # per candidate pair
+    anchor: np.ndarray  # per node (n x 3)
+    moved: np.ndarray  # per node, scratch
+    col_moved: np.ndarray  # per collider, scratch
+
+
 @njit(cache=True, nogil=True)
-def moved_since(pos, anchor, count, limit):
-    """Has any of the first ``count`` nodes moved more than ``limit`` (m) from ``anchor``?"""
-    limit2 = limit * limit
-    for i in range(count):
+def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, watch):
+    """Keeps ``near`` (from :func:`mark_near`) true as nodes move; returns its new count.
+
+    A node further than ``REPICK_MOVE`` from its ``anchor`` is anchored where it is now,
+    and every candidate pair of a collider on it is measured again (the others keep their
+    mark; the list stays in the candidates' order). Between two measurements of a pair no
+    node of it is anchored again, so each stays within ``REPICK_MOVE`` of the anchor it had
+    then and moves at most ``2 * REPICK_MOVE`` = half the margin from where it was measured:
+    the gap of a pair left out closes by at most the margin, so it cannot touch, and every
+    contact pass does exactly what a pass over all candidates would (a pair apart is skipped).
+    """
+    if n_near == n_pairs:
+        return n_near  # all of them are listed: nothing can be missing
+    is_near, anchor, moved, col_moved = NearWatch(*watch)
+    pos = nodes.pos
+    limit2 = REPICK_MOVE * REPICK_MOVE
+    any_moved = False
+    for i in range(nodes.count):
         dx = pos[i, 0] - anchor[i, 0]
         dy = pos[i, 1] - anchor[i, 1]
         dz = pos[i, 2] - anchor[i, 2]
-        if dx * dx + dy * dy + dz * dz > limit2:
-            return True
-    return False
+        moved[i] = dx * dx + dy * dy + dz * dz > limit2
+        if moved[i]:
+            any_moved = True
+            anchor[i, 0] = pos[i, 0]
+            anchor[i, 1] = pos[i, 1]
+            anchor[i, 2] = pos[i, 2]
+    if not any_moved:
+        return n_near
+    col_a, col_b, col_r = cols.a, cols.b, cols.radius
+    for c in range(cols.count):
+        col_moved[c] = moved[col_a[c]] or moved[col_b[c]]
+    n = 0
+    for k in range(n_pairs):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        if col_moved[i] or col_moved[j]:
+            reach = col_r[i] + col_r[j] + CONTACT_MARGIN
+            is_near[k] = segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach
+        if is_near[k]:
+            near[n, 0] = i
+            near[n, 1] = j
+            n += 1
+    return n
 
 
 @njit(cache=True, nogil=True)
-def still_near(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor):
-    """The ``near`` pairs (picked from the candidates ``pairs`` by :func:`near_pairs` where the
-    nodes stood at ``anchor``), picked again if any node has moved half the margin since: then
-    no pair left out can have closed its gap."""
-    if n_near < n_pairs and moved_since(nodes.pos, anchor, nodes.count, 0.5 * CONTACT_MARGIN):
-        near, n_near = near_pairs(nodes.pos, cols.a, cols.b, cols.radius, pairs, n_pairs, CONTACT_MARGIN)
-        anchor[: nodes.count] = nodes.pos[: nodes.count]
-    return near, n_near
-
-
-@njit(cache=True, nogil=True)
-def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, anchor, record, dt):
-    """:func:`resolve_contacts` over the pairs :func:`still_near`: it does exactly what a pass
-    over every candidate would. Returns the near pairs it used."""
-    near, n_near = still_near(nodes, cols, pairs, n_pairs, near, n_near, anchor)
+def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, watch, record, dt):
+    """:func:`resolve_contacts` over the pairs :func:`repick_moved` keeps near: it does exactly
+    what a pass over every candidate would. Returns how many it visited."""
+    n_near = repick_moved(nodes, cols, pairs, n_pairs, near, n_near, watch)
     resolve_contacts(nodes, cols, near, n_near, record, dt)
-    return near, n_near
+    return n_near
 
 
 @njit(cache=True, nogil=True)
@@ -561,32 +623,36 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     # candidates are mostly further apart: a hugging crowd's, five in six), and does what a
     # pass over all of them would: a pair further apart is skipped by each pass anyway
     if n_pairs >= NEAR_FROM:
-        near, n_near = near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN)
+        near = np.empty((n_pairs, 2), dtype=pairs.dtype)
+        is_near = np.empty(n_pairs, dtype=np.bool_)
+        n_near = mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN, is_near, near)
         anchor = pos[: nodes.count].copy()
     else:  # a small scene: a pass over them all costs less than watching for moves
         near, n_near = pairs, n_pairs
-        anchor = pos[:0].copy()  # (never read: no pair is left out)
+        is_near = np.ones(0, dtype=np.bool_)  # (never read: no pair is left out)
+        anchor = pos[:0].copy()
+    watch = (is_near, anchor, np.empty(anchor.shape[0], np.bool_), np.empty(cols.count, np.bool_))
     for it in range(iterations):
-        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, it == 0, dt)
+        n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, watch, it == 0, dt)
         relax_once(c)
     for _ in range(FINAL_PASSES):
         # limits and links once more, last: the shape constraints we most want exact;
         # a contact pass before each, so that what they undo of a contact is redone
         # (bool(False), not False: numba would compile resolve_contacts again for a literal)
-        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
+        n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, watch, bool(False), dt)  # noqa: UP018
         limits_pass(c)
         links_pass(c)
     limits_pass(c)  # limits have the last word
     # ... but for a carried doll: its shape, settled between contact passes, so that it
     # neither stretches (a few cm links on light nodes) nor sinks into its carrier
     for _ in range(SETTLE_ROUNDS if held.shape[0] else 0):
-        near, n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, anchor, bool(False), dt)  # noqa: UP018
+        n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, watch, bool(False), dt)  # noqa: UP018
         settle_shape(nodes, c.links, held, SETTLE_PASSES)
     # and the ground the very last: the passes since its last pass push nodes into it - the
     # contacts of a body lying on a held doll pressed the doll's neck 5 cm under (goal melee);
     # the final limits pass pressed a folded knee 6 cm under
     lift_out_of_ground(nodes)
-    near, n_near = still_near(nodes, cols, pairs, n_pairs, near, n_near, anchor)
+    n_near = repick_moved(nodes, cols, pairs, n_pairs, near, n_near, watch)
     # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_near):
