@@ -85,8 +85,10 @@ def cell_hash(ix, iy, iz, mask):
 @njit(cache=True, inline="always")
 def _boxes_overlap(lo, hi, i, lo2, hi2, j):
     """Does box i of (lo, hi) overlap box j of (lo2, hi2)?"""
-    return (lo[i, 0] <= hi2[j, 0] and lo2[j, 0] <= hi[i, 0] and lo[i, 1] <= hi2[j, 1]
-            and lo2[j, 1] <= hi[i, 1] and lo[i, 2] <= hi2[j, 2] and lo2[j, 2] <= hi[i, 2])  # fmt: skip
+    # `&`, not `and`: without the short-circuit branches numba's code is ~15x faster here
+    # (the broad phase's tests go either way at random; same answers)
+    return ((lo[i, 0] <= hi2[j, 0]) & (lo2[j, 0] <= hi[i, 0]) & (lo[i, 1] <= hi2[j, 1])
+            & (lo2[j, 1] <= hi[i, 1]) & (lo[i, 2] <= hi2[j, 2]) & (lo2[j, 2] <= hi[i, 2]))  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -186,7 +188,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still
             i = entry_box[e1]
             for e2 in range(e1 + 1, start[h + 1]):
                 j = entry_box[e2]
-                if i == j or (still[i] and still[j]) or not _boxes_overlap(lo, hi, i, lo, hi, j):
+                if (i == j) | (still[i] & still[j]) or not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
                 # count each pair once: in the cell holding the low corner of the overlap
                 # (both entries must be that very cell, not another one sharing the bucket)
@@ -194,12 +196,12 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still
                 oy = max(cl[i, 1], cl[j, 1])
                 oz = max(cl[i, 2], cl[j, 2])
                 if not (
-                    entry_cell[e1, 0] == ox
-                    and entry_cell[e1, 1] == oy
-                    and entry_cell[e1, 2] == oz
-                    and entry_cell[e2, 0] == ox
-                    and entry_cell[e2, 1] == oy
-                    and entry_cell[e2, 2] == oz
+                    (entry_cell[e1, 0] == ox)
+                    & (entry_cell[e1, 1] == oy)
+                    & (entry_cell[e1, 2] == oz)
+                    & (entry_cell[e2, 0] == ox)
+                    & (entry_cell[e2, 1] == oy)
+                    & (entry_cell[e2, 2] == oz)
                 ):
                     continue  # fmt: skip
                 if n_out < cap:
@@ -334,6 +336,28 @@ def _felt_weight(inv_mass, flags, i):
     return 0.0 if flags[i] & NODE_LOCKED else inv_mass[i]
 
 
+#: Rounding allowance (m) of :func:`_segments_apart`: the contact solver's closest points are
+#: interpolated between the nodes, a few ulps of a position (1e-13 m at 100 m) off their box.
+APART_SLACK = 1e-6
+
+
+@njit(cache=True, inline="always")
+def _segments_apart(pos, a, b, c, d, gap):
+    """Are the boxes of segments a-b and c-d (node rows) more than ``gap`` (m) apart along an
+    axis? Then so are the segments (by ``gap`` less :data:`APART_SLACK`): the cheap test that
+    spares most near pairs the closest points (most are near, not touching: one in six in a
+    ragdoll pile)."""
+    gap = gap + APART_SLACK
+    out = False
+    for k in range(3):
+        lo_1 = min(pos[a, k], pos[b, k])
+        hi_1 = max(pos[a, k], pos[b, k])
+        lo_2 = min(pos[c, k], pos[d, k])
+        hi_2 = max(pos[c, k], pos[d, k])
+        out |= (lo_2 - hi_1 > gap) | (lo_1 - hi_2 > gap)
+    return out
+
+
 @njit(cache=True, nogil=True)
 def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
@@ -356,6 +380,8 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         b = col_b[i]
         c = col_a[j]
         d = col_b[j]
+        if _segments_apart(pos, a, b, c, d, col_r[i] + col_r[j]):
+            continue  # depth < 0 below, surely
         s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
         px = pos[a, 0] + s * (pos[b, 0] - pos[a, 0])
         py = pos[a, 1] + s * (pos[b, 1] - pos[a, 1])
@@ -510,6 +536,12 @@ def segment_gap2(pos, a, b, c, d):
     return dist2
 
 
+@njit(cache=True, inline="always")
+def _within(pos, a, b, c, d, reach):
+    """Are segments a-b and c-d (node rows) closer than ``reach`` (m)?"""
+    return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
+
+
 @njit(cache=True, nogil=True)
 def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
     """Marks in ``is_near`` the candidate pairs (first ``n_pairs`` of ``pairs``) whose capsules
@@ -522,7 +554,10 @@ def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
         i = pairs[k, 0]
         j = pairs[k, 1]
         reach = col_r[i] + col_r[j] + margin
-        is_near[k] = segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach
+        a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
+        is_near[k] = (
+            not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
+        )
         if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
@@ -581,14 +616,17 @@ def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
         return n_near
     col_a, col_b, col_r = cols.a, cols.b, cols.radius
     for c in range(cols.count):
-        col_moved[c] = moved[col_a[c]] or moved[col_b[c]]
+        col_moved[c] = moved[col_a[c]] | moved[col_b[c]]
     n = 0
     for k in range(n_pairs):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        if col_moved[i] or col_moved[j]:
+        if col_moved[i] | col_moved[j]:
             reach = col_r[i] + col_r[j] + CONTACT_MARGIN
-            is_near[k] = segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]) < reach * reach
+            a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
+            is_near[k] = (
+                not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
+            )
         if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
