@@ -73,6 +73,22 @@ def test_mujocos_compiled_model_is_kept_and_steps_the_same(tmp_path, monkeypatch
     assert Ragdolls(4).info()["cached"] is False  # another model: compiled
 
 
+def test_bench_skips_mujoco_where_its_model_would_take_hours_to_compile(tmp_path, monkeypatch):
+    """Above ``COMPILE_LIMIT`` ragdolls the bench says why there is no comparison rather than
+    wait on MuJoCo's compiler; a model compiled before (cached) is used at any size."""
+    pytest.importorskip("mujoco")
+    from twig_ecs.bench import mujoco_ragdolls
+
+    monkeypatch.setenv("TWIG_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(mujoco_ragdolls, "COMPILE_LIMIT", 2)
+    said: list[str] = []
+    report = run_bench(("ragdolls",), (3,), steps=2, warmup=1, say=said.append)
+    assert "mujoco" not in report["cases"][0] and any("no MuJoCo comparison" in line for line in said)
+    mujoco_ragdolls.Ragdolls(3)  # compiled once (by hand here): in the cache now
+    report = run_bench(("ragdolls",), (3,), steps=2, warmup=1)
+    assert report["cases"][0]["mujoco"]["cached"]
+
+
 @pytest.mark.parametrize("kind", ["schoolyard", *SIZED])
 def test_every_bench_case_steps_the_same_timed_and_untimed(kind):
     """What ``twig bench`` times is what users run: ``step_timed`` (as the bench steps) and

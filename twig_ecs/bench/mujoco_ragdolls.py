@@ -102,6 +102,25 @@ def model_cache() -> Path:
     return cache_base() / "mujoco-models"
 
 
+#: The most ragdolls the bench has MuJoCo compile a model of (its compiler's time grows with
+#: the square of the bodies: 1000 ragdolls ~70 s on a 2-core box, so 2000 ~5 min, 10 000 hours);
+#: a larger model is used only when it is in the cache already.
+COMPILE_LIMIT = 2000
+
+
+def _model_path(mjcf: str) -> Path:
+    import mujoco
+
+    key = hashlib.sha256(f"{mujoco.__version__}\n{mjcf}".encode()).hexdigest()[:16]
+    return model_cache() / f"ragdolls-{key}.mjb"
+
+
+def affordable(count: int, dt: float = 1.0 / 60.0) -> bool:
+    """Can the bench have a MuJoCo model of ``count`` ragdolls soon: at most
+    :data:`COMPILE_LIMIT`, or compiled before and cached?"""
+    return count <= COMPILE_LIMIT or _model_path(ragdolls_mjcf(count, dt)).exists()
+
+
 def compiled_model(mjcf: str):
     """MuJoCo's model of ``mjcf`` and whether it came from the cache.
 
@@ -112,9 +131,8 @@ def compiled_model(mjcf: str):
     """
     import mujoco
 
-    key = hashlib.sha256(f"{mujoco.__version__}\n{mjcf}".encode()).hexdigest()[:16]
-    folder = model_cache()
-    path = folder / f"ragdolls-{key}.mjb"
+    path = _model_path(mjcf)
+    folder = path.parent
     if path.exists():
         try:
             os.utime(path)  # in use: kept by the pruning below
