@@ -360,3 +360,17 @@ def test_fixed_bodies_meeting_each_other_give_no_contact_work_and_a_ball_only_it
     owners = state.colliders.body[pairs]
     assert len(pairs) > 0 and np.all((owners == ball).any(axis=1)), "every pair left is the ball's"
     assert scene.entity("ball").node_positions[:, 1].min() > 0.0  # and it still rests, bounced off
+
+
+def test_the_broad_phase_sorts_its_grid_entries_by_bucket_keeping_their_order_within_one():
+    """``sort_by_hash`` orders the grid's entries as counting them into buckets did (buckets
+    in turn, entries within one in the order they came), however many bits the hash has."""
+    from twig_ecs.systems.physics.collide import sort_by_hash
+
+    rng = np.random.default_rng(5)
+    for bits in (4, 11, 12, 19, 23):
+        keys = rng.integers(0, 1 << bits, 5000)
+        keys[::7] = keys[0]  # many equal keys: their order must hold
+        order, sorted_keys = sort_by_hash(keys, len(keys), bits)
+        assert (order == np.argsort(keys, kind="stable")).all()
+        assert (sorted_keys == np.sort(keys)).all()

@@ -131,17 +131,57 @@ def collider_boxes(pos, flags, col_a, col_b, col_r, col_body, n_col, n_bodies, m
     body_start[0] = 0
 
 
-@njit(cache=True, nogil=True)
-def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still):
-    """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid; none
-    of two ``still`` bodies (all their contact points pinned: no contact of theirs can move
-    anything, and fence panels meeting at a post would be 39 pairs each, nine in ten of
-    the schoolyard's).
+#: Bits of the hash sorted at once by :func:`sort_by_hash` (a count table that stays in cache).
+RADIX_BITS = 11
 
-    ``cl``/``ch`` (n x 3), ``start``, ``entry_box``, ``entry_cell`` are scratch arrays
-    (``start`` a power of two plus one long; the entries at least as many as box-cells).
-    Writes up to ``len(out)`` pairs (i < j) and returns how many there are in all, or
-    -1 when the entry arrays are too short; the caller grows and calls again.
+
+@njit(cache=True, nogil=True)
+def sort_by_hash(keys, n, bits):
+    """The order of ``keys[:n]`` (each below ``2**bits``), equal keys in index order: a stable
+    LSD radix sort, ``RADIX_BITS`` at a time. Returns (the indices, the keys in that order).
+
+    Counting ``n`` entries straight into ``2**bits`` buckets needs a table of that many (at
+    10 000 bodies 4 MB, zeroed, summed and walked every step, and every entry a cache miss
+    into it); a table of 2048 per pass stays in L1, and the passes read and write in order.
+    """
+    idx = np.arange(n)
+    key = keys[:n].copy()
+    idx2 = np.empty(n, np.int64)
+    key2 = np.empty(n, np.int64)
+    count = np.empty((1 << RADIX_BITS) + 1, np.int64)
+    shift = 0
+    while shift < bits:
+        width = min(RADIX_BITS, bits - shift)
+        mask = (1 << width) - 1
+        count[: mask + 2] = 0
+        for e in range(n):
+            count[((key[e] >> shift) & mask) + 1] += 1
+        for r in range(mask + 1):
+            count[r + 1] += count[r]
+        for e in range(n):
+            d = (key[e] >> shift) & mask
+            at = count[d]
+            idx2[at] = idx[e]
+            key2[at] = key[e]
+            count[d] = at + 1
+        idx, idx2 = idx2, idx
+        key, key2 = key2, key
+        shift += width
+    return idx, key
+
+
+@njit(cache=True, nogil=True)
+def body_pairs(lo, hi, n, cell, cl, ch, size, entry_box, entry_cell, out, still):
+    """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid of ``size``
+    buckets (a power of two); none of two ``still`` bodies (all their contact points pinned:
+    no contact of theirs can move anything, and fence panels meeting at a post would be 39
+    pairs each, nine in ten of the schoolyard's).
+
+    ``cl``/``ch`` (n x 3), ``entry_box``, ``entry_cell`` are scratch arrays (the entries at
+    least as many as box-cells). Writes up to ``len(out)`` pairs (i < j) and returns how many
+    there are in all, or -1 when the entry arrays are too short; the caller grows and calls
+    again. The pairs come bucket by bucket, and within one in the order the boxes entered it
+    (box by box, cell by cell): the entries sorted by bucket (:func:`sort_by_hash`).
     """
     n_entries = 0
     for c in range(n):
@@ -156,37 +196,41 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still
         n_entries += (ch[c, 0] - cl[c, 0] + 1) * (ch[c, 1] - cl[c, 1] + 1) * (ch[c, 2] - cl[c, 2] + 1)
     if n_entries > len(entry_box):
         return -1
-    size = len(start) - 1
     hmask = size - 1
-    start[:] = 0
+    keys = np.empty(n_entries, np.int64)
+    cells = np.empty((n_entries, 3), np.int64)
+    boxes = np.empty(n_entries, np.int64)
+    e = 0
     for c in range(n):
         for ix in range(cl[c, 0], ch[c, 0] + 1):
             for iy in range(cl[c, 1], ch[c, 1] + 1):
                 for iz in range(cl[c, 2], ch[c, 2] + 1):
-                    start[cell_hash(ix, iy, iz, hmask) + 1] += 1
-    for h in range(size):
-        start[h + 1] += start[h]
-    # fill, moving each bucket's start forward; then shift back (no second array)
-    for c in range(n):
-        for ix in range(cl[c, 0], ch[c, 0] + 1):
-            for iy in range(cl[c, 1], ch[c, 1] + 1):
-                for iz in range(cl[c, 2], ch[c, 2] + 1):
-                    h = cell_hash(ix, iy, iz, hmask)
-                    e = start[h]
-                    entry_box[e] = c
-                    entry_cell[e, 0] = ix
-                    entry_cell[e, 1] = iy
-                    entry_cell[e, 2] = iz
-                    start[h] += 1
-    for h in range(size, 0, -1):
-        start[h] = start[h - 1]
-    start[0] = 0
+                    keys[e] = cell_hash(ix, iy, iz, hmask)
+                    boxes[e] = c
+                    cells[e, 0] = ix
+                    cells[e, 1] = iy
+                    cells[e, 2] = iz
+                    e += 1
+    bits = 0
+    while (1 << bits) < size:
+        bits += 1
+    by_bucket, bucket = sort_by_hash(keys, n_entries, bits)
+    for e in range(n_entries):  # the entries in bucket order
+        f = by_bucket[e]
+        entry_box[e] = boxes[f]
+        entry_cell[e, 0] = cells[f, 0]
+        entry_cell[e, 1] = cells[f, 1]
+        entry_cell[e, 2] = cells[f, 2]
     n_out = 0
     cap = out.shape[0]
-    for h in range(size):
-        for e1 in range(start[h], start[h + 1]):
+    first = 0
+    while first < n_entries:  # one bucket: entries first..last - 1
+        last = first + 1
+        while last < n_entries and bucket[last] == bucket[first]:
+            last += 1
+        for e1 in range(first, last):
             i = entry_box[e1]
-            for e2 in range(e1 + 1, start[h + 1]):
+            for e2 in range(e1 + 1, last):
                 j = entry_box[e2]
                 if (i == j) | (still[i] & still[j]) or not _boxes_overlap(lo, hi, i, lo, hi, j):
                     continue
@@ -208,6 +252,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, start, entry_box, entry_cell, out, still
                     out[n_out, 0] = min(i, j)
                     out[n_out, 1] = max(i, j)
                 n_out += 1
+        first = last
     return n_out
 
 
@@ -733,10 +778,9 @@ class CollideSystem(System):
             entry_box = self._array("ebox", (entries,), np.int64)
             entry_cell = self._array("ecell", (entries, 3), np.int64)
             size = 1 << max(4, int(2 * len(entry_box) - 1).bit_length())  # >= 2 x entries, a power of 2
-            start = self._array("start", (size + 1,), np.int64)[: size + 1]
             bpairs = self._array("bpairs", (4 * nb, 2), np.int64)
             n_bp = body_pairs(
-                body_lo, body_hi, nb, CELL_SIZE, cl, ch, start, entry_box, entry_cell, bpairs, still
+                body_lo, body_hi, nb, CELL_SIZE, cl, ch, size, entry_box, entry_cell, bpairs, still
             )
             if n_bp < 0:
                 entries = 2 * len(entry_box)
