@@ -371,6 +371,6 @@ def test_the_broad_phase_sorts_its_grid_entries_by_bucket_keeping_their_order_wi
     for bits in (4, 11, 12, 19, 23):
         keys = rng.integers(0, 1 << bits, 5000)
         keys[::7] = keys[0]  # many equal keys: their order must hold
-        order, sorted_keys = sort_by_hash(keys, len(keys), bits)
+        order, sorted_keys = sort_by_hash(keys, bits)
         assert (order == np.argsort(keys, kind="stable")).all()
         assert (sorted_keys == np.sort(keys)).all()

@@ -138,16 +138,17 @@ RADIX_BITS = 11
 
 
 @njit(cache=True, nogil=True)
-def sort_by_hash(keys, n, bits):
-    """The order of ``keys[:n]`` (each below ``2**bits``), equal keys in index order: a stable
+def sort_by_hash(keys, bits):
+    """The order of ``keys`` (each below ``2**bits``), equal keys in index order: a stable
     LSD radix sort, ``RADIX_BITS`` at a time. Returns (the indices, the keys in that order).
 
-    Counting ``n`` entries straight into ``2**bits`` buckets needs a table of that many (at
+    Counting the entries straight into ``2**bits`` buckets needs a table of that many (at
     10 000 bodies 4 MB, zeroed, summed and walked every step, and every entry a cache miss
     into it); a table of 2048 per pass stays in L1, and the passes read and write in order.
     """
+    n = len(keys)
     idx = np.arange(n)
-    key = keys[:n].copy()
+    key = keys.copy()
     idx2 = np.empty(n, np.int64)
     key2 = np.empty(n, np.int64)
     count = np.empty((1 << RADIX_BITS) + 1, np.int64)
@@ -173,9 +174,9 @@ def sort_by_hash(keys, n, bits):
 
 
 @njit(cache=True, nogil=True)
-def body_pairs(lo, hi, n, cell, cl, ch, size, entry_box, entry_cell, out, still):
-    """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid of ``size``
-    buckets (a power of two); none of two ``still`` bodies (all their contact points pinned:
+def body_pairs(lo, hi, n, cell, cl, ch, bits, entry_box, entry_cell, out, still):
+    """Pairs of overlapping boxes among ``n`` (the bodies), via a spatial hash grid of
+    ``2**bits`` buckets; none of two ``still`` bodies (all their contact points pinned:
     no contact of theirs can move anything, and fence panels meeting at a post would be 39
     pairs each, nine in ten of the schoolyard's).
 
@@ -198,7 +199,7 @@ def body_pairs(lo, hi, n, cell, cl, ch, size, entry_box, entry_cell, out, still)
         n_entries += (ch[c, 0] - cl[c, 0] + 1) * (ch[c, 1] - cl[c, 1] + 1) * (ch[c, 2] - cl[c, 2] + 1)
     if n_entries > len(entry_box):
         return -1
-    hmask = size - 1
+    hmask = (1 << bits) - 1
     keys = np.empty(n_entries, np.int64)
     cells = np.empty((n_entries, 3), np.int64)
     boxes = np.empty(n_entries, np.int64)
@@ -213,10 +214,9 @@ def body_pairs(lo, hi, n, cell, cl, ch, size, entry_box, entry_cell, out, still)
                     cells[e, 1] = iy
                     cells[e, 2] = iz
                     e += 1
-    bits = 0
-    while (1 << bits) < size:
-        bits += 1
-    by_bucket, bucket = sort_by_hash(keys, n_entries, bits)
+    # (no n_entries argument: an integer counted up from a literal 0 had numba compile
+    # sort_by_hash twice, for the literal and for an integer)
+    by_bucket, bucket = sort_by_hash(keys, bits)
     for e in range(n_entries):  # the entries in bucket order
         f = by_bucket[e]
         entry_box[e] = boxes[f]
@@ -779,10 +779,10 @@ class CollideSystem(System):
         while True:
             entry_box = self._array("ebox", (entries,), np.int64)
             entry_cell = self._array("ecell", (entries, 3), np.int64)
-            size = 1 << max(4, int(2 * len(entry_box) - 1).bit_length())  # >= 2 x entries, a power of 2
+            bits = max(4, int(2 * len(entry_box) - 1).bit_length())  # 2**bits >= 2 x entries
             bpairs = self._array("bpairs", (4 * nb, 2), np.int64)
             n_bp = body_pairs(
-                body_lo, body_hi, nb, CELL_SIZE, cl, ch, size, entry_box, entry_cell, bpairs, still
+                body_lo, body_hi, nb, CELL_SIZE, cl, ch, bits, entry_box, entry_cell, bpairs, still
             )
             if n_bp < 0:
                 entries = 2 * len(entry_box)
