@@ -23,6 +23,15 @@ def test_bench_reports_each_case_split_by_system():
     assert "crowd 3" in text and "split by system" in text
 
 
+def test_bench_times_each_cases_set_up_apart_from_its_steps():
+    """Building the scene and its first step (installing its systems) are reported, not
+    mixed into the step times."""
+    report = run_bench(("crowd",), (3,), steps=3, warmup=2, mujoco=False)
+    crowd = report["cases"][0]
+    assert crowd["build_s"] > 0.0 and crowd["first_step_s"] > 0.0
+    assert "set-up (s)" in format_report(report) and "first step" in format_report(report)
+
+
 def test_bench_command_prints_json(capsys):
     assert main(["bench", "--cases", "ragdolls", "--sizes", "2", "--steps", "2", "--warmup", "1",
                  "--no-mujoco", "--json"]) == 0  # fmt: skip
@@ -45,6 +54,39 @@ def test_mujoco_ragdolls_are_as_many_capsule_humanoids():
     info = sim.info()
     assert info["bodies"] == 4 * 12 and info["geoms"] == 4 * 13
     assert info["unstable"] == 0
+
+
+def test_mujocos_compiled_model_is_kept_and_steps_the_same(tmp_path, monkeypatch):
+    """MuJoCo compiles a model in time quadratic in its bodies (a minute for 1000 ragdolls):
+    the bench keeps the compiled model and loads it the next time, the same model."""
+    pytest.importorskip("mujoco")
+    from twig_ecs.bench.mujoco_ragdolls import Ragdolls
+
+    monkeypatch.setenv("TWIG_CACHE_DIR", str(tmp_path))
+    first, second = Ragdolls(3), Ragdolls(3)
+    assert not first.info()["cached"] and second.info()["cached"]
+    assert len(list((tmp_path / "mujoco-models").glob("*.mjb"))) == 1
+    for _ in range(20):
+        first.step()
+        second.step()
+    assert np.array_equal(first.data.qpos, second.data.qpos)
+    assert Ragdolls(4).info()["cached"] is False  # another model: compiled
+
+
+def test_bench_skips_mujoco_where_its_model_would_take_hours_to_compile(tmp_path, monkeypatch):
+    """Above ``COMPILE_LIMIT`` ragdolls the bench says why there is no comparison rather than
+    wait on MuJoCo's compiler; a model compiled before (cached) is used at any size."""
+    pytest.importorskip("mujoco")
+    from twig_ecs.bench import mujoco_ragdolls
+
+    monkeypatch.setenv("TWIG_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(mujoco_ragdolls, "COMPILE_LIMIT", 2)
+    said: list[str] = []
+    report = run_bench(("ragdolls",), (3,), steps=2, warmup=1, say=said.append)
+    assert "mujoco" not in report["cases"][0] and any("no MuJoCo comparison" in line for line in said)
+    mujoco_ragdolls.Ragdolls(3)  # compiled once (by hand here): in the cache now
+    report = run_bench(("ragdolls",), (3,), steps=2, warmup=1)
+    assert report["cases"][0]["mujoco"]["cached"]
 
 
 @pytest.mark.parametrize("kind", ["schoolyard", *SIZED])

@@ -73,7 +73,7 @@ def test_wanderers_pick_new_targets_when_they_arrive(scenes):
 @pytest.mark.parametrize(
     ("params", "fragments"),
     [
-        pytest.param({"count": 0}, ["count", "between 1 and 5000", "got 0"], id="below-min"),
+        pytest.param({"count": 0}, ["count", "between 1 and 10000", "got 0"], id="below-min"),
         pytest.param({"count": "lots"}, ["count", "an integer", "lots"], id="not-a-number"),
         pytest.param({"count": 2.5}, ["count", "an integer"], id="not-whole"),
         pytest.param({"cont": 3}, ["no parameter 'cont'", "did you mean 'count'"], id="unknown"),

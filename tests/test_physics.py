@@ -243,6 +243,60 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
         assert [order[p] for p in kept] == sorted(order[p] for p in kept)
 
 
+def test_the_near_pairs_follow_moving_nodes_and_never_leave_out_a_touching_pair():
+    """As nodes move between contact passes, ``repick_moved`` measures again only the pairs of
+    colliders on a node that has moved a quarter of the margin, and its list still holds every
+    touching candidate pair, in the broad phase's order."""
+    from twig_ecs.bench.cases import hugging_pairs
+    from twig_ecs.systems.physics.collide import (
+        CONTACT_MARGIN,
+        REPICK_MOVE,
+        CollideSystem,
+        ContactColumns,
+        contacts_of,
+        mark_near,
+        near_pairs,
+        repick_moved,
+    )
+    from twig_ecs.systems.physics.constrain import constraints_of, named_constraints
+
+    with hugging_pairs(40) as scene:
+        scene.run(4.0)
+        collide = next(s for s in scene.schedule.systems() if isinstance(s, CollideSystem))
+        n = collide.broad_phase()
+        st = scene.state
+        nodes = named_constraints(constraints_of(st)).nodes
+        cols = ContactColumns(*contacts_of(st))
+        pos, col = st.nodes.pos, st.colliders
+        near = np.empty((n, 2), dtype=st.pairs.dtype)
+        is_near = np.empty(n, dtype=np.bool_)
+        count = mark_near(pos, col.a, col.b, col.radius, st.pairs, n, CONTACT_MARGIN, is_near, near)
+        watch = (is_near, pos[: st.nodes.count].copy(), np.empty(st.nodes.count, np.bool_),
+                 np.empty(col.count, np.bool_))  # fmt: skip
+        order = {p: k for k, p in enumerate(map(tuple, st.pairs[:n].tolist()))}
+        rng = np.random.default_rng(3)
+        changed = 0
+        for _ in range(40):
+            # small jitters everywhere (each under the threshold: nothing measured again) and a
+            # few long moves, as contact and link corrections make within a step
+            pos[: st.nodes.count] += rng.normal(0.0, 0.002, (st.nodes.count, 3))
+            far = rng.choice(st.nodes.count, 5, replace=False)
+            pos[far] += rng.normal(0.0, 0.03, (5, 3))
+            before = near[:count].copy()
+            count = repick_moved(nodes, cols, st.pairs, n, near, count, watch)
+            changed += count != len(before) or not (near[:count] == before).all()
+            touching, n_touching = near_pairs(pos, col.a, col.b, col.radius, st.pairs, n, 0.0)
+            kept = [tuple(p) for p in near[:count].tolist()]
+            assert {tuple(p) for p in touching[:n_touching].tolist()} <= set(kept)
+            assert [order[p] for p in kept] == sorted(order[p] for p in kept)
+        # a jitter alone (every node well within the threshold) changes nothing
+        pos[: st.nodes.count] = watch[1] + 0.4 * REPICK_MOVE / math.sqrt(3.0)
+        before = near[:count].copy()
+        assert repick_moved(nodes, cols, st.pairs, n, near, count, watch) == count
+        assert (near[:count] == before).all()
+        assert changed > 10, "the long moves bring pairs near and take others away"
+
+
 @pytest.mark.skipif(usable_threads() < 2, reason="one usable thread (NUMBA_NUM_THREADS=1?): nothing to split")
 def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state(monkeypatch, scenes):
     """A crowd big enough for the threaded passes (a grab joint among them: a body pair that must
@@ -306,3 +360,17 @@ def test_fixed_bodies_meeting_each_other_give_no_contact_work_and_a_ball_only_it
     owners = state.colliders.body[pairs]
     assert len(pairs) > 0 and np.all((owners == ball).any(axis=1)), "every pair left is the ball's"
     assert scene.entity("ball").node_positions[:, 1].min() > 0.0  # and it still rests, bounced off
+
+
+def test_the_broad_phase_sorts_its_grid_entries_by_bucket_keeping_their_order_within_one():
+    """``sort_by_hash`` orders the grid's entries as counting them into buckets did (buckets
+    in turn, entries within one in the order they came), however many bits the hash has."""
+    from twig_ecs.systems.physics.collide import sort_by_hash
+
+    rng = np.random.default_rng(5)
+    for bits in (4, 11, 12, 19, 23):
+        keys = rng.integers(0, 1 << bits, 5000)
+        keys[::7] = keys[0]  # many equal keys: their order must hold
+        order, sorted_keys = sort_by_hash(keys, bits)
+        assert (order == np.argsort(keys, kind="stable")).all()
+        assert (sorted_keys == np.sort(keys)).all()

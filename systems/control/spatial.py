@@ -58,6 +58,8 @@ def body_footprints(pos, body, flags, n, locked, cx, cz, spread, free):
 #: Edge (m) of the ground grid steering finds obstacles in: above the usual cut-off
 #: (1.8 m), so a character's disc spans at most 2 x 2 cells.
 STEER_CELL = 2.0
+#: The most buckets of the ground grid (a power of two, 2**16: two a node up to 2000 characters).
+GRID_BITS = 16
 #: A disc spanning more cells than this (a cut-off much longer than the cell) scans every node.
 MAX_CELLS = 16
 
@@ -234,7 +236,10 @@ class SpatialIndex:
         cached = self.__dict__.get("_grid")
         if cached is not None and cached[0] == key:
             return cached[1]
-        size = 1 << max(4, int(2 * n - 1).bit_length())  # >= 2 x nodes, a power of two
+        # a power of two >= 2 x nodes, up to GRID_BUCKETS: a body's nodes share a cell or two, and
+        # more buckets (4 MB at 10 000 characters) cost more to clear and sum than the queries save
+        # (the answers do not depend on it: nodes of cells sharing a bucket are measured and left out)
+        size = 1 << min(GRID_BITS, max(4, int(2 * n - 1).bit_length()))
         start = np.empty(size + 1, dtype=np.int64)
         entries = np.empty(max(n, 1), dtype=np.int64)
         ground_grid(state.nodes.pos, n, STEER_CELL, start, entries)

@@ -11,8 +11,12 @@ default solver settings are kept; only the time step is ours. Needs the optional
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -86,6 +90,70 @@ def available() -> bool:
     return True
 
 
+#: Compiled models kept in the cache (the newest; a 1000-ragdoll model is ~28 MB on disk).
+KEEP_MODELS = 4
+
+
+def model_cache() -> Path:
+    """Where compiled models are kept: ``mujoco-models`` in twig's cache folder
+    (``TWIG_CACHE_DIR`` or the user cache dir), beside the kernels."""
+    from twig_ecs.kernelcache import cache_base
+
+    return cache_base() / "mujoco-models"
+
+
+#: The most ragdolls the bench has MuJoCo compile a model of (its compiler's time grows with
+#: the square of the bodies: 1000 ragdolls ~70 s on a 2-core box, so 2000 ~5 min, 10 000 hours);
+#: a larger model is used only when it is in the cache already.
+COMPILE_LIMIT = 2000
+
+
+def _model_path(mjcf: str) -> Path:
+    import mujoco
+
+    key = hashlib.sha256(f"{mujoco.__version__}\n{mjcf}".encode()).hexdigest()[:16]
+    return model_cache() / f"ragdolls-{key}.mjb"
+
+
+def affordable(count: int, dt: float = 1.0 / 60.0) -> bool:
+    """Can the bench have a MuJoCo model of ``count`` ragdolls soon: at most
+    :data:`COMPILE_LIMIT`, or compiled before and cached?"""
+    return count <= COMPILE_LIMIT or _model_path(ragdolls_mjcf(count, dt)).exists()
+
+
+def compiled_model(mjcf: str):
+    """MuJoCo's model of ``mjcf`` and whether it came from the cache.
+
+    MuJoCo 4's compiler takes time quadratic in the bodies (1000 ragdolls: over a minute
+    on a quiet 2-core box, 10 000: hours), so a compiled model is saved (MJB, MuJoCo's
+    binary model: the same model, stepping to the same bits) under a hash of its MJCF and
+    MuJoCo's version and loaded from there next time (a fraction of a second).
+    """
+    import mujoco
+
+    path = _model_path(mjcf)
+    folder = path.parent
+    if path.exists():
+        try:
+            os.utime(path)  # in use: kept by the pruning below
+            return mujoco.MjModel.from_binary_path(str(path)), True
+        except (OSError, ValueError):
+            pass  # unreadable or from another build: compile again
+    model = mujoco.MjModel.from_xml_string(mjcf)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, suffix=".part", delete=False) as f:
+            part = Path(f.name)
+        mujoco.mj_saveModel(model, str(part), None)
+        part.replace(path)  # whole or not at all: another bench may be reading
+        old = sorted(folder.glob("ragdolls-*.mjb"), key=lambda p: p.stat().st_mtime)
+        for stale in old[:-KEEP_MODELS]:
+            stale.unlink(missing_ok=True)
+    except OSError:
+        pass  # no cache: compiled again next time
+    return model, False
+
+
 class Ragdolls:
     """A MuJoCo model of ``count`` ragdolls that steps one ``mj_step`` at a time, timed."""
 
@@ -94,7 +162,7 @@ class Ragdolls:
 
         self._mujoco = mujoco
         t0 = time.perf_counter()
-        self.model = mujoco.MjModel.from_xml_string(ragdolls_mjcf(count, dt))
+        self.model, self.cached = compiled_model(ragdolls_mjcf(count, dt))
         self.build_s = time.perf_counter() - t0
         self.data = mujoco.MjData(self.model)
 
@@ -118,6 +186,7 @@ class Ragdolls:
             "contacts": int(d.ncon),
             # MuJoCo resets a diverging simulation itself and counts it as a warning
             "unstable": int(d.warning[self._mujoco.mjtWarning.mjWARN_BADQACC].number),
-            "build_s": self.build_s,
+            "build_s": self.build_s,  # compiling the model, or loading it (cached)
+            "cached": self.cached,
             "version": self._mujoco.__version__,
         }

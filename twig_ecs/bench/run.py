@@ -67,7 +67,10 @@ def run_bench(which: tuple[str, ...] = CASES, sizes: tuple[int, ...] = SIZES, st
         scene = make()
         build = time.perf_counter() - t0
         other = None
-        if mujoco and size is not None:
+        if mujoco and size is not None and size not in models and not mujoco_ragdolls.affordable(size):
+            say(f"{label}: no MuJoCo comparison: compiling its model of {size} ragdolls would take "
+                f"hours (over {mujoco_ragdolls.COMPILE_LIMIT}: see docs/performance.md)")  # fmt: skip
+        elif mujoco and size is not None:
             if size not in models:
                 say(f"{label}: building MuJoCo's {size} ragdolls...")
                 models[size] = mujoco_ragdolls.Ragdolls(size)

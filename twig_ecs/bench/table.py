@@ -7,6 +7,10 @@ def _ms(value: float | None) -> str:
     return "-" if value is None else f"{value:.3f}"
 
 
+def _s(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
+
+
 def format_report(report: dict) -> str:
     """Two tables: step times with the MuJoCo comparison, then the split by system."""
     s = report["startup"]
@@ -26,6 +30,14 @@ def format_report(report: dict) -> str:
     if versions:
         lines.append(f"mujoco {versions.pop()}: as many capsule humanoid ragdolls (13 capsules), dt 1/60, "
                      "default solver, stepped in turn with ours; ours/mj < 1: we are faster")  # fmt: skip
+    lines.append("")
+    lines.append("set-up (s): building the scene, its first step (installing its systems), MuJoCo's model "
+                 "(compiled, or loaded from the cache)")  # fmt: skip
+    for r in report["cases"]:
+        first = r.get("first_step_s")
+        m = r.get("mujoco")
+        mj = "-" if m is None else f"{m['build_s']:.2f}" + (" (cached)" if m.get("cached") else "")
+        lines.append(f"{r['case']:<15} build {r['build_s']:>7.2f}  first step {_s(first):>6}  mujoco {mj}")
     lines.append("")
     lines.append("split by system (median ms; groups are medians of each step's sum; systems under 0.02 ms "
                  "in every case left out)")  # fmt: skip

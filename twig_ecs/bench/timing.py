@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import statistics
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -44,7 +45,8 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
             beside: Callable[[], float] | None = None) -> dict:  # fmt: skip
     """Step ``warmup`` times untimed, then ``steps`` timed steps; medians in ms.
 
-    Returns median and 95th-percentile step time, the median of every system, the
+    Returns median and 95th-percentile step time, the first (warm-up) step's seconds
+    (``first_step_s``: set-up a scene does on its first step), the median of every system, the
     per-group medians (physics, behaviour, control: the median of each step's group
     sum), the scene's size and its thread choice (``threads``: see
     :meth:`~twig_ecs.threads.ThreadChoice.summary`; ``threaded_share`` of the timed steps
@@ -53,8 +55,12 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
     load - on a shared machine the only fair comparison; its summary is under
     ``"beside"``.
     """
-    for _ in range(warmup):
+    first = None
+    for k in range(warmup):
+        started = time.perf_counter()
         scene.step()
+        if k == 0:  # activating the scene: installing its systems, the first broad phase, ...
+            first = time.perf_counter() - started
         if beside is not None:
             beside()
     choice = scene.thread_choice
@@ -90,6 +96,7 @@ def measure(scene: Scene, steps: int, warmup: int, progress: Callable[[int], Non
             "candidate_pairs": int(state.n_pairs),
             "nan": bool(np.isnan(positions).any()),
             "threads": choice.summary() | {"threaded_share": _share(choice, counted)},
+            "first_step_s": first,
         }
         | ({"beside": summary(other)} if beside is not None else {})
     )
