@@ -23,6 +23,7 @@ from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Body, Character
 from twig_ecs.step import StepContext
 from twig_ecs.store import NODE_LOCKED
+from twig_ecs.systems.behaviours.footwork import pivot
 
 
 @dataclass(slots=True)
@@ -106,6 +107,7 @@ class Withdraw(Behavior):
         away = retreat.away
         if retreat.stagger_until > self.scene.time:
             character.walk(away * SPEED * retreat.share * character.scale**0.5)
+            pivot(character, -away)  # backing off, still facing it (the gait would turn to walk away)
             character.pose("grapple")
             source = self.scene.name_of(retreat.source)
             if source and source != character.name:
