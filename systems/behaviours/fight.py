@@ -5,8 +5,8 @@ within ``reach``, a fight starts at random (``temper`` per second, from the scen
 seeded RNG) as a grapple goal; at most one fight every ``COOLDOWN`` seconds, and none
 while the rival is on its way to a hug or in one. The one attacked squares up to the
 fighter (:class:`Defend`): it faces it with its guard up, raises a forearm at a fist
-coming at its head, staggers back a step when a shove or a blow lands, and
-shoves back.
+coming at its head, staggers back when a shove or a blow lands, and answers a shove with
+a shove.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class Guard:
 
     stagger_until: float = -1.0  # s (scene time): shoved, it staggers back until then
     counter_at: float = -1.0  # s: its shove back starts then (a load, then the strike); < 0: none due
-    gap: float = 0.0  # m: pelvis to pelvis at which its straight arms reach the fighter's chest
+    gap: float = 0.0  # m: its fighting gap to the fighter (grapple.fighting_gap)
 
 
 COOLDOWN = 25.0  # s between fights
@@ -140,8 +140,8 @@ class Defend(Behavior):
         return DEFEND if ground_distance(character.position, other.position) < SQUARE_UP else 0.0
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
-        """Face the fighter, guard up; stagger back a step when shoved, then shove back; block
-        a fist coming at it; a step round to face it when turned away."""
+        """Face the fighter, guard up; stagger back when struck, then answer a shove with a
+        shove; block a fist coming at the head; turn to face it (on the spot within reach)."""
         other = self.scene.character_handle(self.attacked_by[character.entity])
         now = self.scene.time
         guard = self.world.try_component(character.entity, Guard)
@@ -154,8 +154,8 @@ class Defend(Behavior):
             guard.stagger_until = now + STAGGER
             striking = self.world.try_component(other.entity, Striking)
             if striking is not None and striking.kind == "shove":
-                # a shove is answered with a shove (a fist only blocked): its turn next, the
-                # fighter waits, wound up, for this shove back to be over
+                # a shove is answered with a shove (a fist is only blocked): its turn next, the
+                # fighter waits, guard up, for this shove back to be over
                 guard.counter_at = guard.stagger_until + COUNTER_AFTER
                 announce(character, guard.counter_at + COUNTER_LOAD, "shove")
         if now < guard.stagger_until:
