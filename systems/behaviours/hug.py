@@ -22,10 +22,14 @@ equals the hugger's arms go round the partner's upper back, the partner's round 
 waist. Arms that get no hand onto the back within ``WRAP_TIME`` fail the goal; one hand
 round by then is a hug (a short arm round a broad body).
 
-A batch behaviour: the walk-up is steered per character (it is brief); every hugger whose
-arms are going round or holding is moved by one :func:`hug_arms` call over arrays, with
-the pair's fixed figures (the partner's rows, its torso's thickness, the capsules it is
-touched on) packed once per goal.
+A batch behaviour: every walking hugger of a step is walked up in one pass over arrays (the
+ones still far off steered round the others in one
+:func:`~twig_ecs.systems.control.steer.steer_rows` call, with ``steer_to``'s arithmetic),
+who hugs whom kept in a table of the hug goals; every hugger whose arms are going round or
+holding is moved by one :func:`hug_arms` call, with the pair's fixed figures (the partner's
+rows, its torso's thickness, the capsules it is touched on) packed once per goal. A step
+with a rare event in a walk-up (a partner gone, a stall, a walk it cannot do) is done a
+character at a time (``Hug._act_each``, the per-character form), which says what happened.
 """
 
 from __future__ import annotations
