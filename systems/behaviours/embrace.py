@@ -231,24 +231,34 @@ class Embrace(Behavior):
     def run(self, ctx: StepContext) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
         pairs = self._pairs()
-        # hugged entity: (hugger entity, hug phase, hugger's character row), this step (made
-        # again each step from the hug goals: a cache, which a snapshot does not keep)
-        hugged_by = self.scratch["hugged_by"] = {
-            p[0]: (p[3], p[5].memory.get("phase", "approach"), p[4]) for p in pairs
-        }
+        # the pairs and each one's hug phase, this step (made again each step from the hug
+        # goals: a cache, which a snapshot does not keep), for act_batch
+        phases = [p[5].memory.get("phase", "approach") for p in pairs]
+        rows = self.scratch["this_step"] = (self._rows(), phases)
         if not pairs:
             return
         pos, nodes = ctx.state.nodes.pos, ctx.state.characters.nodes
-        mine = pos[nodes[[p[2] for p in pairs], PELVIS]]
-        theirs = pos[nodes[[p[4] for p in pairs], PELVIS]]
+        hugged, huggers, _ = rows[0]
+        mine, theirs = pos[nodes[hugged, PELVIS]], pos[nodes[huggers, PELVIS]]
         far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])
-        for pair, gap in zip(pairs, far.tolist(), strict=True):
-            hugged, mind = pair[0], pair[1]
-            if not mind.autonomous:
-                continue  # a scripted character does only what it is told
-            near = NEAR if hugged_by[hugged][1] in ("wrap", "hold") else TURN_NEAR
-            if gap < near:
+        near = np.where([phase in ("wrap", "hold") for phase in phases], NEAR, TURN_NEAR)
+        for k in np.flatnonzero(far < near).tolist():
+            mind = pairs[k][1]
+            if mind.autonomous:  # a scripted character does only what it is told
                 mind.activations[self.name] = EMBRACE
+
+    def _rows(self) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
+        """The pairs' hugged and hugger character rows, and each hugged entity's pair (made
+        again with the pairs)."""
+        pairs = self._pairs()
+        key = self.scratch["pairs"][0]
+
+        def rows() -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
+            hugged = np.array([p[2] for p in pairs], dtype=np.int64)
+            huggers = np.array([p[4] for p in pairs], dtype=np.int64)
+            return hugged, huggers, {p[0]: k for k, p in enumerate(pairs)}
+
+        return self.scratch.keyed("rows", key, rows)
 
     def act(self, character, mind: Mind, goal, dt: float) -> None:
         """Turn to a coming hugger; then bend to it, hands on its back."""
@@ -259,10 +269,11 @@ class Embrace(Behavior):
         scene = self.scene
         state = scene.state
         ch = state.characters
-        hugged_by = self.scratch["hugged_by"]
-        huggers = np.array([hugged_by[e][2] for e in entities], dtype=np.int64)
+        (_, hugger_rows, slots), phases = self.scratch["this_step"]
+        picked = np.array([slots[e] for e in entities], dtype=np.int64)
+        huggers = hugger_rows[picked]
         crows = np.array(rows, dtype=np.int64)
-        phase = np.array([PHASES.get(hugged_by[e][1], 0) for e in entities], dtype=np.int64)
+        phase = np.array([PHASES.get(phases[k], 0) for k in picked.tolist()], dtype=np.int64)
         ch.gaze_node[crows] = ch.nodes[huggers, HEAD]  # look at the hugger's head
         ch.gaze_mode[crows] = GAZE_NODE
         stoop_at = np.empty((len(rows), 3))

@@ -22,10 +22,14 @@ equals the hugger's arms go round the partner's upper back, the partner's round 
 waist. Arms that get no hand onto the back within ``WRAP_TIME`` fail the goal; one hand
 round by then is a hug (a short arm round a broad body).
 
-A batch behaviour: the walk-up is steered per character (it is brief); every hugger whose
-arms are going round or holding is moved by one :func:`hug_arms` call over arrays, with
-the pair's fixed figures (the partner's rows, its torso's thickness, the capsules it is
-touched on) packed once per goal.
+A batch behaviour: every walking hugger of a step is walked up in one pass over arrays (the
+ones still far off steered round the others in one
+:func:`~twig_ecs.systems.control.steer.steer_rows` call, with ``steer_to``'s arithmetic),
+who hugs whom kept in a table of the hug goals; every hugger whose arms are going round or
+holding is moved by one :func:`hug_arms` call, with the pair's fixed figures (the partner's
+rows, its torso's thickness, the capsules it is touched on) packed once per goal. A step
+with a rare event in a walk-up (a partner gone, a stall, a walk it cannot do) is done a
+character at a time (``Hug._act_each``, the per-character form), which says what happened.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from twig_ecs.components import Character
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.kernelmath import (
     GAZE_NODE,
+    HANG,
     HEAD,
     L_HAND,
     L_HIP,
@@ -57,7 +62,15 @@ from twig_ecs.kernelmath import (
 from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
-from twig_ecs.systems.behaviours.approach import steer_to
+from twig_ecs.systems.behaviours.approach import (
+    ARRIVE_SLACK,
+    SQUEEZE,
+    SQUEEZE_AFTER,
+    SQUEEZE_HOLD,
+    STALL_TIME,
+    grab_pairs,
+    steer_to,
+)
 from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the partner's answer to a hug)
     FACED,
     HOLD,
@@ -72,7 +85,18 @@ from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the
     lower_hands,
     mutual_hug,
 )
+from twig_ecs.systems.control.steer import (
+    ALONG_UNIT,
+    ARRIVED,
+    SAT,
+    WALKING,
+    around,
+    gains,
+    steer_rows,
+    walkers,
+)
 from twig_ecs.systems.physics.collide import segment_gap2
+from twig_ecs.validate import LIMIT
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
@@ -138,6 +162,22 @@ def count_hands_on_back(pos, spine, l_hand, r_hand, pelvis_at, spine_at, neck_at
         if best <= ON_BACK and ox * ux + oz * uz > 0.0:
             count += 1
     return count
+
+
+@njit(cache=True, nogil=True)
+def mean_velocities(pos, prev, mass, first, count, total, dt, out):
+    """Row k: the mass-weighted mean velocity (m/s) over the last step of the nodes
+    ``first[k]`` .. ``first[k] + count[k]`` of total mass ``total[k]``, into ``out[k]``. The
+    sum runs node by node, as numpy's column sum does (``BodyHandle.velocity``): the same figures."""
+    for k in range(len(first)):
+        i = first[k]
+        for j in range(3):
+            out[k, j] = (pos[i, j] - prev[i, j]) / dt * mass[i]
+        for i in range(first[k] + 1, first[k] + count[k]):
+            for j in range(3):
+                out[k, j] += (pos[i, j] - prev[i, j]) / dt * mass[i]
+        for j in range(3):
+            out[k, j] /= total[k]
 
 
 @njit(cache=True, nogil=True)
@@ -280,6 +320,28 @@ _HUG_ROW = {
 }
 
 
+#: A hug goal's row in the behaviour's table of goals (:meth:`Hug._goal_row`): its partner and
+#: what the walk-up reads of it, looked up once per goal (again when the hug goals or the
+#: store's rows change: whether the partner is hugging it back depends on the partner's goal).
+_GOAL_ROW = {
+    "partner": Column(np.int64),  # the partner's character row
+    "partner_entity": Column(np.int64),
+    "body": Column(np.int64),  # its body row: no obstacle to the walk-up
+    "pelvis": Column(np.int64),  # its pelvis node: where it is
+    "head": Column(np.int64),  # its head node: looked at
+    "first": Column(np.int64),  # its nodes (its velocity: a partner walking off is pursued)
+    "count": Column(np.int64),
+    "mass": Column(np.float64),  # kg, numpy's sum (the one BodyHandle.velocity divides by)
+    "mutual": Column(np.uint8),  # the partner is hugging it back
+    "answers": Column(np.uint8),  # ... and was told first: this one answers its lead (mutual_hug)
+    "run": Column(np.uint8),
+    "max_speed": Column(np.float64),  # its own top speed (m/s): a faster walk is refused
+}
+
+#: The walk-up's steering gains: approach's (the same field and figures as ``steer_to``).
+_GAINS = gains(SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD)
+
+
 @register
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
@@ -296,15 +358,37 @@ class Hug(Behavior):
     batch = True
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Approach, wrap, hold, release (:meth:`act_batch` for one character)."""
-        self.act_batch([character.character.index], [character.entity], dt, goals=[goal])
+        """Approach, wrap, hold, release: the per-character form of :meth:`act_batch`."""
+        self._act_each([character.character.index], [character.entity], [goal], dt)
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
-        """Walk up and step back (per character), then wrap and hold for every hugger at once
-        (and answer, as a hugged partner does, for every one led in a mutual hug)."""
-        scene = self.scene
+        """Walk up, wrap and hold for every hugger at once (and answer, as a hugged partner
+        does, for every one led in a mutual hug).
+
+        The walk-up is one pass over arrays (:meth:`_walk_up_batch`); a step with a rare
+        event in it (a partner gone, a walk-up stalled, a walk the character cannot do) is
+        done per character instead (:meth:`_act_each`), which says what went wrong."""
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
+        if any(goal is None for goal in goals):
+            live = [k for k, goal in enumerate(goals) if goal is not None]
+            rows, entities = [rows[k] for k in live], [entities[k] for k in live]
+            goals = [goals[k] for k in live]
+        if not goals:
+            return
+        scene = self.scene
+        state = scene.state
+        table = self._goal_table()
+        hugs = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("hug"))
+        table.sync([goal.id for goal in goals], (hugs, state.version, id(state)),
+                   lambda i, _: self._goal_row(rows[i], entities[i], goals[i]))  # fmt: skip
+        if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt):
+            self._act_each(rows, entities, goals, dt)
+
+    def _act_each(self, rows: list[int], entities: list[int], goals: list, dt: float) -> None:
+        """:meth:`act_batch` a character at a time: the walk-up per character (``steer_to``),
+        then wrap and hold, and answer, over arrays."""
+        scene = self.scene
         close, answering = [], []
         for row, entity, goal in zip(rows, entities, goals, strict=True):
             if goal is None:
@@ -323,6 +407,218 @@ class Hug(Behavior):
             self._wrap_and_hold(close, dt)
         if answering:
             self._answer(answering, dt)
+
+    def _goal_row(self, row: int, entity: int, goal: Goal) -> dict | None:
+        """One hug goal's row of the table of goals (``_GOAL_ROW``); None when its partner is
+        gone, is not a character, is itself or has no head (the per-character path says so)."""
+        scene = self.scene
+        target = goal.params["target"]
+        if not scene.has_entity(target) or target == scene.name_of(entity):
+            return None
+        other = scene.entity(target)
+        them = self.world.try_component(other.entity, Character)
+        body = other.body
+        if them is None or "head" not in body.node_names:
+            return None
+        mind = self.world.try_component(other.entity, Mind)
+        theirs = mind.goal if mind is not None else None
+        mutual = (theirs is not None and theirs.behavior == "hug"
+                  and theirs.params.get("target") == scene.name_of(entity))  # fmt: skip
+        first, count = body.node_start, len(body.node_names)
+        return dict(partner=them.index, partner_entity=other.entity, body=body.index,
+                    pelvis=int(scene.state.characters.nodes[them.index, PELVIS]),
+                    head=body.node_index("head"),
+                    first=first, count=count, mass=scene.state.nodes.mass[first : first + count].sum(),
+                    mutual=mutual, answers=mutual and (theirs.id, other.entity) < (goal.id, entity),
+                    run=bool(goal.params.get("run", False)),
+                    max_speed=self.world.component_for_entity(entity, Character).max_speed)  # fmt: skip
+
+    def _goal_table(self) -> RowTable:
+        """This behaviour's table of hug goals (a cache of who hugs whom)."""
+        table = self.scratch.get("goals")
+        if table is None:
+            table = self.scratch["goals"] = RowTable(**_GOAL_ROW)
+        return table
+
+    def _act_over_arrays(self, rows: list[int], entities: list[int], goals: list, table: RowTable,
+                         dt: float) -> bool:  # fmt: skip
+        """:meth:`_act_each`'s work with the walk-up over arrays (every goal has its row in
+        ``table``, in order); False, having changed nothing, when a rare event wants the
+        per-character path."""
+        scene = self.scene
+        phases = [goal.memory.get("phase", "approach") for goal in goals]
+        answers = table["answers"]
+        walking = [k for k, phase in enumerate(phases) if phase == "approach"]
+        close, answering, done = [], [], []
+        for k, phase in enumerate(phases):
+            if phase == "approach":
+                continue
+            if answers[k] and phase in ("wrap", "hold"):
+                partner = int(table["partner_entity"][k])
+                leader = (int(table["partner"][k]), self.world.component_for_entity(partner, Mind).goal)
+                answering.append((rows[k], entities[k], goals[k], leader))
+            elif goals[k].memory.get("led"):  # it answered a mutual hug, and the leader has let go
+                done.append(k)
+            else:
+                close.append((rows[k], entities[k], goals[k]))
+        if walking:
+            # one that lets go in the loop above and is walked up to (hugging back) would be
+            # seen as gone from then on: per character
+            if done and set(table["partner_entity"][walking].tolist()) & {entities[k] for k in done}:
+                return False
+            picked = np.array(walking, dtype=np.int64)
+            walk_up = self._walk_up_batch([rows[k] for k in walking], [entities[k] for k in walking],
+                                          [goals[k] for k in walking], table, picked)  # fmt: skip
+            if walk_up is None:
+                return False
+            walk_up()
+        for k in done:
+            self.finish(scene.character_handle(entities[k]), goals[k])
+        if close:
+            self._wrap_and_hold(close, dt)
+        if answering:
+            self._answer(answering, dt)
+        return True
+
+    def _walk_up_batch(self, rows: list[int], entities: list[int], goals: list, table: RowTable,
+                       at: np.ndarray):  # fmt: skip
+        """:meth:`_walk_up` for every walking hugger at once (row k: character ``rows[k]``,
+        entity ``entities[k]``, its goal ``goals[k]``, its row ``at[k]`` of ``table``), with the
+        same arithmetic: the steered ones in one :func:`steer_rows` call. Returns what writes it all (a
+        function), or None when one of them stalled or asks for a walk it cannot do (the
+        per-character path fails the goal or says why)."""
+        scene = self.scene
+        state = scene.state
+        ch = state.characters
+        pos = state.nodes.pos
+        crows = np.array(rows, dtype=np.int64)
+        partners, mutual = table["partner"][at], table["mutual"][at] != 0
+        here = pos[ch.nodes[crows, PELVIS]]
+        there = pos[table["pelvis"][at]]
+        # ground_distance's figures (math.hypot, not numpy's)
+        dx, dz = (here[:, 0] - there[:, 0]).tolist(), (here[:, 2] - there[:, 2]).tolist()
+        gap = np.array([math.hypot(x, z) for x, z in zip(dx, dz, strict=True)])
+        scale = ch.scale[crows]
+        big = ch.scale[partners] > BIG * scale
+        wrap_at = np.where(big, CLOSE, CLOSE_EQUAL) * scale + REACH_IN
+        wrapping = gap <= wrap_at
+        moving = np.flatnonzero(~wrapping)
+        # own_pace: a walk by the root of its size, or a run at RUN_FROUDE for its legs
+        run = table["run"][at][moving] != 0
+        froude = RUN_FROUDE * abs(scene.settings.gravity[1])
+        legs = ch.leg_length[crows[moving]]
+        pace = np.where(run, np.sqrt(froude * legs), WALK_PACE * np.sqrt(scale[moving]))
+        walk = np.zeros((len(moving), 3))
+        docking = gap[moving] < DOCK_FROM
+        dock = np.flatnonzero(docking)
+        if len(dock):
+            # the last steps, straight in: v = sqrt(2 a d) stops it as the torsos meet
+            d = moving[dock]
+            left = (gap[d] - (wrap_at[d] - REACH_IN)) * np.where(mutual[d], 0.5, 1.0)
+            speed = np.sqrt(2.0 * BRAKE * np.maximum(left, 0.0))
+            speed = np.where(speed < DOCK, DOCK, np.where(speed > pace[dock], pace[dock], speed))
+            toward = (there[d] - here[d]) * np.array([1.0, 0.0, 1.0])
+            walk[dock] = toward / np.maximum(gap[d], 1e-9)[:, None] * speed[:, None]
+        steered = np.flatnonzero(~docking)
+        memory = []
+        status = np.zeros(len(moving), dtype=np.int64)
+        if len(steered):
+            m = moving[steered]
+            w = self._steer(crows[m], [goals[k] for k in m], table, at[m], here[m], there[m], pace[steered],
+                            mutual[m])  # fmt: skip
+            if w is None:
+                return None
+            walk[steered], status[steered], memory = w
+        if len(moving):
+            # what CharacterHandle.walk refuses (not finite, too big, over its top speed): per
+            # character, which says why (a margin on the speed: the handle's own hypot decides)
+            walk[:, 1] = 0.0
+            limit = table["max_speed"][at][moving]
+            if not (np.isfinite(walk).all() and np.abs(walk).max() <= LIMIT
+                    and (np.hypot(walk[:, 0], walk[:, 2]) <= limit * (1.0 - 1e-9)).all()):  # fmt: skip
+                return None
+
+        def write() -> None:
+            ch.gaze_node[crows] = table["head"][at]  # look at the partner's head
+            ch.gaze_mode[crows] = GAZE_NODE
+            now = scene.time
+            for k in np.flatnonzero(wrapping):
+                goals[k].memory["phase"], goals[k].memory["since"] = "wrap", now
+            if not len(moving):
+                return
+            movers = crows[moving]
+            ch.arm_mode[movers] = HANG  # the arms swing as it walks: they rise as the wrap begins
+            ch.walk[movers] = walk  # (an arrived one stops: its walk is nought)
+            for goal, update, unless in memory:
+                goal.memory.update(update)
+                for key, value in unless.items():
+                    goal.memory.setdefault(key, value)
+            for k in np.flatnonzero((ch.mode[movers] == SIT) & (status != ARRIVED)):
+                scene.character_handle(entities[moving[k]]).stand()
+
+        return write
+
+    def _steer(self, crows: np.ndarray, goals: list, table: RowTable, at: np.ndarray, here: np.ndarray,
+               there: np.ndarray, pace: np.ndarray, mutual: np.ndarray):  # fmt: skip
+        """``steer_to(character, goal, where, 0.0, exclude=(target,), speed=pace)`` for every
+        row at once (``where``: the partner's pelvis ``there``; a partner not hugging back is
+        pursued): (walk vectors, statuses, the goal memories' updates), nothing written; None
+        when one has stalled. The figures are ``steer_to``'s: the direction's and the pursuit's
+        lengths are numpy's (``np.linalg.norm``: a dot product per row)."""
+        scene = self.scene
+        state = scene.state
+        ch = state.characters
+        n = len(crows)
+        direction = (here - there) * np.array([1.0, 0.0, 1.0])
+        norm = np.sqrt(np.array([d.dot(d) for d in direction]))
+        far = norm > 1e-9
+        direction[far] /= norm[far, None]
+        direction[~far] = 0.0
+        w = walkers(n)._replace(crows=np.arange(n), skip_bodies=table["body"][at], skip_start=np.arange(n),
+                                skip_count=np.ones(n, dtype=np.int64))  # fmt: skip
+        w.pelvis[:] = ch.nodes[crows, PELVIS]
+        w.me[:] = ch.body[crows]
+        w.point[:] = there
+        w.arrive[:] = 0.0 + ARRIVE_SLACK
+        w.direction[:, :3] = direction
+        w.direction[:, 3] = ALONG_UNIT
+        w.speed[:] = pace
+        w.stall[:] = STALL_TIME
+        now = scene.time
+        memories = [goal.memory for goal in goals]
+        w.best[:] = [m.get("best", np.inf) for m in memories]
+        w.best_at[:] = [m.get("best_at", now) for m in memories]
+        w.squeeze_until[:] = [m.get("squeeze_until", -np.inf) for m in memories]
+        best, squeeze_until = w.best.copy(), w.squeeze_until.copy()
+        walk = np.zeros((n, 3))
+        steer_rows(around(scene, grab_pairs(scene.world), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
+                   scene.dt)  # fmt: skip
+        if ((w.status != WALKING) & (w.status != SAT) & (w.status != ARRIVED)).any():
+            return None  # stalled (the goal fails), or a walk it cannot do
+        going = w.status != ARRIVED
+        updates = []
+        for k in np.flatnonzero(going):
+            update, unless = {}, {}
+            if w.best[k] != best[k]:
+                update["best"], update["best_at"] = float(w.distance[k]), now
+            else:
+                unless["best_at"] = now
+            if w.squeeze_until[k] != squeeze_until[k]:
+                update["squeeze_until"] = float(w.squeeze_until[k])
+            updates.append((goals[k], update, unless))
+        # pursuit: match a partner's pace on top of closing in, or one that walks away is never
+        # caught (not when it walks up to hug back: both would halve their paces)
+        pursue = np.flatnonzero(going & ~mutual)
+        if len(pursue):
+            t = at[pursue]
+            velocity = np.empty((len(pursue), 3))
+            mean_velocities(state.nodes.pos, state.nodes.prev, state.nodes.mass, table["first"][t],
+                            table["count"][t], table["mass"][t], scene.dt, velocity)  # fmt: skip
+            walk[pursue] = walk[pursue] + velocity * np.array([1.0, 0.0, 1.0])
+            speed = np.sqrt(np.array([v.dot(v) for v in walk[pursue]]))
+            over = speed > pace[pursue]
+            walk[pursue[over]] *= (pace[pursue[over]] / speed[over])[:, None]
+        return walk, w.status, updates
 
     def _partner(self, character, goal: Goal):
         """The hug's partner (a character), or None when the goal has failed for want of one."""
