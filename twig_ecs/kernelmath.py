@@ -40,7 +40,7 @@ WALK_FROUDE_MAX = 0.5
 #: decided (2.8 m/s for a 1.05 m child, 3.6 m/s for an adult).
 RUN_FROUDE_MAX = 1.5
 #: Step length / leg length = STEP_GAIN * Froude ** STEP_POWER (a person: 0.7-0.8 at 1.2 m/s).
-STEP_GAIN, STEP_POWER = 1.15, 0.3
+STEP_GAIN, STEP_POWER = 1.25, 0.3
 #: Running, the step grows faster with speed (a person at 3 m/s: ~1.3 leg lengths):
 #: step / leg = (the walk's longest step) * (Froude / WALK_FROUDE_MAX) ** RUN_STEP_POWER.
 RUN_STEP_POWER = 0.5
