@@ -56,7 +56,9 @@ HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
 WALK_GAIN = 9.0  # 1/s: pelvis velocity towards the walk vector
 KEEP_PACE_GAIN = 30.0  # 1/s: ... along the walk, while slower than it but already going
-KEEP_PACE_FROM = 0.7  # ... at least this share of the pace its way
+KEEP_PACE_FROM = 0.7  # ... at least this share of the pace its way, at a brisk walk:
+KEEP_PACE_FROUDE = 0.12  # above this Froude number (slower, the landings brake it by 2% or less)
+KEEP_PACE_MOST = 2.5  # m/s^2: the most that extra push adds (it makes up a few per cent, no sprint)
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
 YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
 LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity (at 1.75 m tall; by scale)
@@ -292,9 +294,11 @@ def control_posture(args, n_chars, gravity, dt):
             sp = math.sqrt(wx * wx + wz * wz)
             along = (vpx * wx + vpz * wz) / max(sp, 1e-9)
             lag = sp - along
-            if 0.0 < lag and along > KEEP_PACE_FROM * sp and t_fly * sp < step:  # (a walk, not a run)
-                ax += (KEEP_PACE_GAIN - WALK_GAIN) * lag * wx / max(sp, 1e-9)
-                az += (KEEP_PACE_GAIN - WALK_GAIN) * lag * wz / max(sp, 1e-9)
+            brisk = sp * sp > KEEP_PACE_FROUDE * g * leg_length[c] and t_fly * sp < step  # a walk, not a run
+            if 0.0 < lag and along > KEEP_PACE_FROM * sp and brisk:
+                more = min((KEEP_PACE_GAIN - WALK_GAIN) * lag, KEEP_PACE_MOST)
+                ax += more * wx / max(sp, 1e-9)
+                az += more * wz / max(sp, 1e-9)
             # no lurches: a person changes pace at a fraction of g
             most = WALK_ACC * g
             a = math.sqrt(ax * ax + az * az)
