@@ -169,6 +169,26 @@ def test_a_torso_thrown_over_in_a_running_turn_is_caught(scenes):
     assert max(pitch[worst + 12 :]) <= 25.0, "and is upright again within 0.2 s"
 
 
+def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, adult_walks):
+    # before (issue 35): 1.89 steps/s of 0.9-1.0 m, airborne half the time, and in the first
+    # seconds the same foot landed twice in a row
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    adult = scene.spawn("humanoid", name="a", height=1.75, character=True)
+    scene.run(0.5)
+    adult.walk((0.0, 0.0, 2.5))
+    scene.run(1.0)
+    track = walklab.record(adult, 5.0)
+    run = walklab.walk_figures(track)
+    assert 2.5 <= run["cadence"] <= 3.1, f"{run['cadence']:.2f} steps/s (before: 1.89)"
+    assert 0.15 <= run["flight"] <= 0.40, f"airborne {run['flight']:.2f} of the time (before: 0.50)"
+    assert abs(run["pelvis"] - adult_walks[1.2]["pelvis"]) <= 0.05, "the pelvis runs at about walking height"
+    assert run["step_lr"] <= 0.1 and 0.8 <= run["step"] <= 1.1, (run["step"], run["step_lr"])
+    assert 2.25 <= run["speed"] <= 2.75, "within 10% of the asked pace"
+    feet = [f for _, f in walklab.touchdowns(track)]
+    assert all(a != b for a, b in zip(feet, feet[1:], strict=False)), f"a foot landed twice in a row: {feet}"
+
+
 def test_past_a_walks_limit_a_child_runs_with_both_feet_off_the_ground_capped_by_its_size(scenes):
     scene = Scene.load("empty")
     scenes.append(scene)

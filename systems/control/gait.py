@@ -517,7 +517,7 @@ def control_gait(args, n_chars, gravity, dt):
             # foot at the end of a straight leg would hold the hip back like a rope
             stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * legs
             if moving:
-                if ex * dx + ez * dz > -MOST_AHEAD * legs:
+                if run or ex * dx + ez * dz > -MOST_AHEAD * legs:
                     # a straight leg ahead, or not far behind, is the stance leg
                     # vaulting: the pelvis rides down its arc until the step is due
                     stretch = -1.0
