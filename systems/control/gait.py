@@ -576,7 +576,9 @@ def control_gait(args, n_chars, gravity, dt):
             if k != 1:
                 prev[kn, k] -= KNEE_LEAD * ((pos[i, k] - prev[i, k]) - (pos[kn, k] - prev[kn, k]))
         bx, bz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
-        if not moving:
+        if not moving or (not run and pos[i, 1] < radius[i] + 0.25 * HEEL_RISE * legs):
+            # a step from standing (or from a heel that did not come up first): the straight
+            # leg folds at once, else it pushes the hip up and the body pitches or hops
             lead_knee(pos, prev, nd[L_HIP + best], kn, i, bx, bz)
         swing[c, best] = t_step
         last_step[c] = best
