@@ -144,7 +144,7 @@ def heel_room(y, radius, legs):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def knee_between(hx, hy, hz, fx, fy, fz, thigh, shin, bx, bz):
     """Where a knee joins a ``thigh`` and a ``shin`` (m) from a hip at (hx, hy, hz) to a foot at
     (fx, fy, fz), bent towards the ground direction (``bx``, ``bz``): (x, y, z, ok) - ``ok``
@@ -175,7 +175,7 @@ def leg_parts(pos, h, kn, i):
     return thigh, shin
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
     """Move knee node ``kn`` part of the way (PUSH_FOLD) to where a ``thigh`` and a ``shin`` join
     hip ``h`` to foot ``i``, bent forwards (``bx``, ``bz``: the body's forward); its velocity is
@@ -191,7 +191,7 @@ def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
         pos[kn, q] += move
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lead_knee(pos, prev, h, kn, i, bx, bz):
     """A foot setting off: give knee node ``kn`` the velocity that keeps it where thigh and shin
     join the hip and the foot next frame (bent forwards, ``bx``, ``bz``), so a straight leg folds
@@ -207,7 +207,7 @@ def lead_knee(pos, prev, h, kn, i, bx, bz):
         prev[kn, 2] = 2.0 * pos[kn, 2] - z
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, progress):
     """A walk's double support: a planted foot behind its hip comes up on its toes - as far as
     it must (and a little more, HEEL_SLACK) for the hip to go on along the leading leg's arc
@@ -245,7 +245,7 @@ def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, 
             bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, walking, dt):
     """A planted foot up on its toes comes down again (HEEL_DROP) unless the walk's double
     support keeps it up: standing still, and once the walk stops, both heels are down."""
@@ -264,7 +264,7 @@ def lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, walking, dt):
         prev[i, 1] = y
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t_left, dt):
     """Where a gait step of foot ``f`` should come down (x, z), ``t_left`` s before it lands.
 
@@ -300,7 +300,7 @@ def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t
     return tx, tz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, fastest,
                gravity, dt):
     """In-flight guidance of a swinging foot (a step's or a kick's), once a frame.
@@ -341,7 +341,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
                 prev[i, q] += k * e
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, fastest, gravity, dt):
     """Set a flying foot's velocity (through ``prev``) to land in reach (see guide_foot)."""
     h = nd[L_HIP + f]
@@ -392,7 +392,7 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
     prev[i, 2] = pos[i, 2] - ((lz - pos[i, 2]) / t - 0.5 * k_arc * gravity[2] * t) * dt
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def control_gait(args, n_chars, gravity, dt):
     """Guide, plant, unlock and launch feet for every standing character (``args``:
     ``store.columns(GaitColumns, nodes, characters)``)."""

@@ -121,7 +121,7 @@ class PostureColumns(NamedTuple):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
     """(pelvis height, its rate of change, the carrying leg's direction from foot to hip x, y,
     z) at which the planted legs, straight, hold the hips:
@@ -151,7 +151,7 @@ def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
     return top, rate, ux, uy, uz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def control_posture(args, n_chars, gravity, dt):
     """Add posture accelerations for every character (see the module docstring; ``args``:
     ``store.columns(PostureColumns, nodes, characters)``)."""
