@@ -78,6 +78,11 @@ FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes walking
 RUN_FOOT_SPEED = 2.5  # of the pace: running, a swinging foot may go this fast (it covers two steps
 # in 1.2 step periods running, 1.7 times the pace on average)
 HURRY_TIME = 0.1  # s: how soon a hurried swing lands
+KNEE_FOLD = 2.5  # m/s (at 1.75 m tall, by the root of the size): the fastest a rising heel folds
+# its knee forwards (a knee thrust faster is a blow to whoever stands close)
+KNEE_FOLD_PACE = 4.0  # ... or this many times the walk's pace, if more (a brisk walk's push-off)
+LEAD_FOLD = 0.8  # m/s (at 1.75 m tall, by the root of the size): ... and the fastest lead_knee folds it
+SET_OFF = 0.5  # of HEEL_RISE: a walking step from a foot behind its hip waits for its heel this far up
 KNEE_LEAD = 1.0  # of the foot's launch speed (over the knee's) given to the knee along the ground
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
@@ -192,30 +197,39 @@ def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
 
 
 @njit(cache=True, nogil=True)
-def lead_knee(pos, prev, h, kn, i, bx, bz):
+def lead_knee(pos, prev, h, kn, i, bx, bz, most):
     """A foot setting off: give knee node ``kn`` the velocity that keeps it where thigh and shin
     join the hip and the foot next frame (bent forwards, ``bx``, ``bz``), so a straight leg folds
-    at once rather than push the hip away like a rod (a standing step would hop)."""
+    at once rather than push the hip away like a rod (a standing step would hop) - but at most
+    ``most`` metres this frame beyond where the hip carries it: a knee thrust forwards faster
+    is a blow to whoever stands close (a hugger stepping back from its partner hurt it)."""
     thigh, shin = leg_parts(pos, h, kn, i)
-    x, y, z, ok = knee_between(2.0 * pos[h, 0] - prev[h, 0], 2.0 * pos[h, 1] - prev[h, 1],
-                               2.0 * pos[h, 2] - prev[h, 2], 2.0 * pos[i, 0] - prev[i, 0],
-                               2.0 * pos[i, 1] - prev[i, 1], 2.0 * pos[i, 2] - prev[i, 2], thigh, shin,
-                               bx, bz)
+    hx, hy, hz = 2.0 * pos[h, 0] - prev[h, 0], 2.0 * pos[h, 1] - prev[h, 1], 2.0 * pos[h, 2] - prev[h, 2]
+    x, y, z, ok = knee_between(hx, hy, hz, 2.0 * pos[i, 0] - prev[i, 0], 2.0 * pos[i, 1] - prev[i, 1],
+                               2.0 * pos[i, 2] - prev[i, 2], thigh, shin, bx, bz)
     if ok:
-        prev[kn, 0] = 2.0 * pos[kn, 0] - x
-        prev[kn, 1] = 2.0 * pos[kn, 1] - y
-        prev[kn, 2] = 2.0 * pos[kn, 2] - z
+        cx, cy, cz = pos[kn, 0] + hx - pos[h, 0], pos[kn, 1] + hy - pos[h, 1], pos[kn, 2] + hz - pos[h, 2]
+        ex, ey, ez = x - cx, y - cy, z - cz
+        far = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if far > most:
+            ex, ey, ez = ex * most / far, ey * most / far, ez * most / far
+        prev[kn, 0] = 2.0 * pos[kn, 0] - (cx + ex)
+        prev[kn, 1] = 2.0 * pos[kn, 1] - (cy + ey)
+        prev[kn, 2] = 2.0 * pos[kn, 2] - (cz + ez)
 
 
 @njit(cache=True, nogil=True)
-def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, progress):
+def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, progress, fold):
     """A walk's double support: a planted foot behind its hip comes up on its toes - as far as
     it must (and a little more, HEEL_SLACK) for the hip to go on along the leading leg's arc
     next frame rather than be held back by a straight leg (there is no foot to roll over), and
     the foot that steps next (``next_foot``) at least ``progress`` (0-1, of the double support
     gone) of HEEL_RISE leg lengths, so the knee is bending when it lifts (a straight leg swung
-    forward would push the hip on like a rod); its knee bends forwards as it comes up. It stays
-    where it is along the ground: it is still planted."""
+    forward would push the hip on like a rod); its knee bends forwards as it comes up. That
+    rise is no faster than brings the knee ``fold`` metres further forward this frame: near
+    straight, a leg a centimetre shorter has its knee 7 cm forward (setting off from standing,
+    the heel came up 14 cm in a frame and the knee flew forwards at 9 m/s - a blow to anyone
+    close). It stays where it is along the ground: it is still planted."""
     bx, bz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
     for f in range(2):
         i = nd[L_FOOT + f]
@@ -233,12 +247,22 @@ def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, 
         reach = HEEL_SLACK * legs
         room = heel_room(pos[i, 1], radius[i], legs)
         y = hy - math.sqrt(max(0.0, reach * reach - ex * ex - ez * ez))
+        kn = nd[L_KNEE + f]
+        thigh, shin = leg_parts(pos, h, kn, i)
         if f == next_foot:
-            y = max(y, pos[i, 1] + room - (1.0 - PRESWING * progress) * HEEL_RISE * legs)
+            pre = pos[i, 1] + room - (1.0 - PRESWING * progress) * HEEL_RISE * legs
+            # the knee's reach forward (a leg of two halves) now, and a leg short enough for it
+            # to be ``fold`` further forward: the foot comes up no higher than that leg reaches
+            half = 0.5 * (thigh + shin)
+            ey = hy - pos[i, 1]
+            now = math.sqrt(ex * ex + ey * ey + ez * ez)
+            bent = math.sqrt(max(0.0, half * half - 0.25 * now * now)) + fold
+            short2 = 4.0 * max(0.0, half * half - bent * bent)
+            if short2 > ex * ex + ez * ez:
+                pre = min(pre, hy - math.sqrt(short2 - ex * ex - ez * ez))
+            y = max(y, pre)
         if y > pos[i, 1]:
             y = min(y, pos[i, 1] + room)
-            kn = nd[L_KNEE + f]
-            thigh, shin = leg_parts(pos, h, kn, i)
             lock_pos[i, 1] = y
             pos[i, 1] = y
             prev[i, 1] = y
@@ -482,7 +506,7 @@ def control_gait(args, n_chars, gravity, dt):
             ds = t_step - t_fly
             progress = 1.0 - max(swing[c, 0], swing[c, 1]) / ds if ds > 1e-6 else 1.0
             lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, 1 - last_step[c],
-                       clamp(progress, 0.0, 1.0))
+                       clamp(progress, 0.0, 1.0), max(KNEE_FOLD * math.sqrt(s), KNEE_FOLD_PACE * v) * dt)
         if not run and (swinging(flags, move_time, nd[L_FOOT]) or swinging(flags, move_time, nd[L_FOOT + 1])):
             continue  # walking (or standing), one foot at a time
         # one step per step period, unless a leg is stretched (below)
@@ -522,6 +546,11 @@ def control_gait(args, n_chars, gravity, dt):
                     # vaulting: the pelvis rides down its arc until the step is due
                     stretch = -1.0
                 need = legs if f != last_step[c] and due else -1.0
+                if (not run and flags[o] & NODE_LOCKED and ex * dx + ez * dz < 0.0
+                        and pos[i, 1] < radius[i] + SET_OFF * HEEL_RISE * legs):
+                    # setting off (or stepping again from a foot flat on the ground): the heel
+                    # comes up first (lift_heels), so the knee is bending when the foot lifts
+                    need = -1.0
             elif ex * ex + ez * ez < (STANCE_SLACK * s) ** 2:
                 stretch = -1.0  # standing on a straight leg under its hip: carried, not stretched
                 need = -1.0
@@ -579,7 +608,7 @@ def control_gait(args, n_chars, gravity, dt):
         if not moving or (not run and pos[i, 1] < radius[i] + 0.25 * HEEL_RISE * legs):
             # a step from standing (or from a heel that did not come up first): the straight
             # leg folds at once, else it pushes the hip up and the body pitches or hops
-            lead_knee(pos, prev, nd[L_HIP + best], kn, i, bx, bz)
+            lead_knee(pos, prev, nd[L_HIP + best], kn, i, bx, bz, LEAD_FOLD * math.sqrt(s) * dt)
         swing[c, best] = t_step
         last_step[c] = best
         steps[c] += 1
