@@ -89,7 +89,7 @@ FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
-ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
+ARM_SWING = 0.6  # m/s of hand velocity per m/s of walking, given at each step
 
 
 class GaitColumns(NamedTuple):
