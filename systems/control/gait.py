@@ -82,6 +82,7 @@ KNEE_FOLD = 2.5  # m/s (at 1.75 m tall, by the root of the size): the fastest a 
 # its knee forwards (a knee thrust faster is a blow to whoever stands close)
 KNEE_FOLD_PACE = 4.0  # ... or this many times the walk's pace, if more (a brisk walk's push-off)
 LEAD_FOLD = 0.8  # m/s (at 1.75 m tall, by the root of the size): ... and the fastest lead_knee folds it
+HEEL_STEP = 0.05  # of the leg's length: the most a heel comes up in a frame for the step to come
 SET_OFF = 0.5  # of HEEL_RISE: a walking step from a foot behind its hip waits for its heel this far up
 KNEE_LEAD = 1.0  # of the foot's launch speed (over the knee's) given to the knee along the ground
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
@@ -260,6 +261,9 @@ def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, 
             short2 = 4.0 * max(0.0, half * half - bent * bent)
             if short2 > ex * ex + ez * ez:
                 pre = min(pre, hy - math.sqrt(short2 - ex * ex - ez * ez))
+            # and no more than HEEL_STEP a frame (setting off into a brisk walk, a child's heel
+            # came up 6 cm in a frame and its shin was squeezed 4 cm)
+            pre = min(pre, pos[i, 1] + HEEL_STEP * legs)
             y = max(y, pre)
         if y > pos[i, 1]:
             y = min(y, pos[i, 1] + room)
