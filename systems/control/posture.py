@@ -66,6 +66,8 @@ LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing 
 LANDING_REACH = 0.98  # of the leg's length: ... so that the landing leg reaches the ground this straight
 WALK_LIFT = 0.5  # g: the most the pelvis is pushed up (beyond its weight) at a walk ...
 WALK_LIFT_FROUDE = 2.0  # ... and this much more per Froude number (the arcs turn up faster at speed)
+KNEE_SINK = 2.0  # m/s: the fastest a sinking pelvis folds a planted knee forwards ...
+SINK_LEAST = 0.03  # of the leg's length: ... reckoned from at least this much knee bend
 KICK_STANCE = 0.96  # of standing height: the pelvis while a foot swings a kick (the support knee bent)
 CARRY_OVER = 0.02  # of the leg's length: the pelvis aims this far above where straight planted legs
 # hold it, so they carry it (taut: straight knees) rather than the height control (the arms' weight
@@ -149,6 +151,26 @@ def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
                 rate = -(ex * vpx + ez * vpz) / rise
                 ux, uy, uz = ex / legs, rise / legs, ez / legs
     return top, rate, ux, uy, uz
+
+
+@njit(cache=True, nogil=True)
+def sink_speed(pos, flags, nd, legs):
+    """How fast (m/s) a standing pelvis may go down: no faster than folds the straighter planted
+    leg's knee forwards at KNEE_SINK m/s (a leg of two halves ``legs`` long: near straight, the
+    knee moves out far faster than the hip comes down; at least SINK_LEAST of a bend)."""
+    most = 1e9
+    for f in range(2):
+        i = nd[L_FOOT + f]
+        if not flags[i] & NODE_LOCKED:
+            continue
+        h = nd[L_HIP + f]
+        dx, dy, dz = pos[h, 0] - pos[i, 0], pos[h, 1] - pos[i, 1], pos[h, 2] - pos[i, 2]
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        half = 0.5 * legs
+        e = max(math.sqrt(max(0.0, half * half - 0.25 * d * d)), SINK_LEAST * legs)
+        # d = 2 sqrt(half^2 - e^2): the hip comes down d' = 4 e e' / d for a knee moving out at e'
+        most = min(most, KNEE_SINK * 4.0 * e / max(d, 1e-6))
+    return most
 
 
 @njit(cache=True, nogil=True)
@@ -281,6 +303,11 @@ def control_posture(args, n_chars, gravity, dt):
                 target_y = min(target_y, KICK_STANCE * stand_height[c])
             target_y -= crouch[c]  # stooping to reach something low
         ay = min(HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy), lift_most)
+        if mode[c] == STAND and not moving:
+            # sinking from straight legs (a stoop, a crouch), gently at first: near straight,
+            # a pelvis going down puts the knees forwards many times as fast - they shot
+            # into whoever stood close (two stooping to one doll knocked knees, 5 J)
+            ay = max(ay, HEIGHT_DAMP * (-sink_speed(pos, flags, nd, leg_length[c]) - vpy))
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
