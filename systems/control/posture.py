@@ -68,6 +68,8 @@ WALK_LIFT = 0.5  # g: the most the pelvis is pushed up (beyond its weight) at a 
 WALK_LIFT_FROUDE = 2.0  # ... and this much more per Froude number (the arcs turn up faster at speed)
 KNEE_SINK = 2.0  # m/s: the fastest a sinking pelvis folds a planted knee forwards ...
 SINK_LEAST = 0.03  # of the leg's length: ... reckoned from at least this much knee bend
+GET_UP = 0.5  # standing heights per second: the fastest a pelvis below GET_UP_TO rises ...
+GET_UP_TO = 0.8  # ... of its standing height (from a fall at 40%: ~0.9 s to 90%; a run dips to 0.85)
 KICK_STANCE = 0.96  # of standing height: the pelvis while a foot swings a kick (the support knee bent)
 CARRY_OVER = 0.02  # of the leg's length: the pelvis aims this far above where straight planted legs
 # hold it, so they carry it (taut: straight knees) rather than the height control (the arms' weight
@@ -308,6 +310,11 @@ def control_posture(args, n_chars, gravity, dt):
             # a pelvis going down puts the knees forwards many times as fast - they shot
             # into whoever stood close (two stooping to one doll knocked knees, 5 J)
             ay = max(ay, HEIGHT_DAMP * (-sink_speed(pos, flags, nd, leg_length[c]) - vpy))
+        if mode[c] == STAND and pos[p, 1] < GET_UP_TO * stand_height[c]:
+            # getting up from low (a fall, a deep stoop): the pelvis rises at most GET_UP
+            # standing heights a second - over most of a second, not a pop (before: from the
+            # ground to 90% of standing height in 0.2 s)
+            ay = min(ay, HEIGHT_DAMP * (GET_UP * stand_height[c] - vpy))
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
