@@ -208,6 +208,10 @@ def test_a_bent_knee_turns_the_shin_about_the_knee_hinge_only(yard, gltf, figure
         thigh, shin = p[:, knee] - p[:, hip], p[:, foot] - p[:, knee]
         cosine = (thigh * shin).sum(-1) / np.linalg.norm(thigh, axis=-1) / np.linalg.norm(shin, axis=-1)
         bend = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+        if figure == "parent" and bend.max() <= 10.0:
+            # the caregiver stands and watches these 10 s: on straight legs since issue 35, so
+            # no knee of its bends (before, it stood with them bent 38-40 degrees)
+            continue
         q = gltf["local"][f"{figure}:{'Left' if side == 'l' else 'Right'}Leg"][bend > 25]
         axis = q[:, :3] / np.linalg.norm(q[:, :3], axis=-1, keepdims=True)
         off = np.degrees(np.arccos(np.clip(np.abs(axis @ hinge), 0.0, 1.0)))
