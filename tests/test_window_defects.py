@@ -356,8 +356,9 @@ def test_goal_results_and_pains_stay_on_screen_in_an_event_log(pyglet_window, tm
         done_at = ended[0]
         assert done_at > 0.5
 
-        child = scene.entity("small_child")  # a yank of its hand hurts
-        hand = next(h for h in ("l_hand", "r_hand") if part_at(window, child.node(h)) == ("small_child", h))
+        child = scene.entity("small_child")  # a yank of a hand (or a foot, whichever is in view) hurts
+        hand = next(h for h in ("l_hand", "r_hand", "l_foot", "r_foot")
+                    if part_at(window, child.node(h)) == ("small_child", h))  # fmt: skip
         drag(window, mouse, screen_xy(window, child.node(hand)), (0, 90), frames=10, elapsed=1 / 60)
         for k in range(5):  # other messages come and take the status line
             viewer.say(f"message {k}")
