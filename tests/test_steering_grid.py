@@ -121,16 +121,24 @@ def test_a_hundred_approachers_all_arrive():
             pairs.append((a, b))
         goals = [g for a, b in pairs for g in (a.approach(b.name), b.approach(a.name))]
         assert len(goals) == 100
-        scene.run(12.0)
+        met: dict[int, float] = {}  # pair -> the gap between them when both goals ended
+        for _ in range(int(round(12.0 / scene.dt))):
+            scene.step()
+            for p, (a, b) in enumerate(pairs):
+                if p not in met and goals[2 * p].finished and goals[2 * p + 1].finished:
+                    met[p] = float(np.hypot(*(a.position - b.position)[[0, 2]]))
         # pair 9, pushed a row down by its neighbours, meets pair 8 standing where it met and
         # pair 7 below: a dip in the field before the gap between them, where both walk
         # vectors swing to and fro; after 2 s without headway they squeeze through (obstacles
         # push less, no pursuit of each other's dithering) instead of failing 'stuck'
         assert [g.status for g in goals].count("done") == 100, [(g.status, g.reason) for g in goals
                                                                  if g.status != "done"]  # fmt: skip
-        for a, b in pairs:
-            gap = np.hypot(*(a.position - b.position)[[0, 2]])
-            assert 0.3 < gap < 0.6 + 0.3, (a.name, gap)  # met at about the stop distance, not through
+        # met at about the stop distance, not through - when they stopped: what happens after
+        # is not the approach's (seed 5 on straight legs: pair 8, met 0.7 m apart, was struck by
+        # a passing approacher's hand at 5.8 J and stepped back from the blow to 1.35 m)
+        assert len(met) == 50
+        for p, gap in met.items():
+            assert 0.3 < gap < 0.6 + 0.3, (pairs[p][0].name, gap)
 
 
 def test_the_approach_bench_case_steps_the_same_timed_and_untimed():
