@@ -151,73 +151,15 @@ def yard_five_minutes(request, tmp_path_factory) -> YardRun:
 # -- workers ---------------------------------------------------------------------------------------
 
 
-#: Where pytest's cache keeps each test's duration (s) in the last runs, by test id.
-DURATIONS_KEY = "twig-ecs/durations"
-#: What a test the cache has no duration for is taken to take (s): a ``slow`` or ``soak``
-#: one, any other. With no durations at all (a fresh checkout), the slow ones go first in
-#: file order, the rest after them.
-UNTIMED_SLOW, UNTIMED = 10.0, 0.0
-
-
-def known_durations(config: pytest.Config) -> dict[str, float]:
-    """Each test's duration in the last runs (s), by id: from pytest's cache, or in a worker
-    from the process that started the run (so that every worker sorts alike)."""
-    workerinput = getattr(config, "workerinput", None)
-    if workerinput is not None:
-        return workerinput.get("twig_durations", {})
-    cache = getattr(config, "cache", None)  # None with -p no:cacheprovider
-    return cache.get(DURATIONS_KEY, {}) if cache is not None else {}
-
-
 @pytest.hookimpl(trylast=True)
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The longest tests first, the many short ones after (a stable sort).
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The ``slow`` and ``soak`` tests first, in their own order (a stable sort).
 
-    With workers the longest units start first and the short ones fill in at the end, so
-    no worker is left finishing a long test while the other has nothing to do. How long a
-    test takes is what it took in the last runs (pytest's cache, written at the end of
-    each run by :class:`Durations`); a test not timed yet counts as :data:`UNTIMED_SLOW`
-    when it is marked ``slow`` or ``soak``. It runs after pytest's own ordering, which
-    keeps the shared run's readers next to each other.
+    With workers the longest units start first and the many short ones fill in at the end,
+    so no worker is left finishing a long test while the other has nothing to do. It runs
+    after pytest's own ordering, which keeps the shared run's readers next to each other.
     """
-    known = known_durations(config)
-
-    def expected(item: pytest.Item) -> float:
-        if item.nodeid in known:
-            return known[item.nodeid]
-        return UNTIMED_SLOW if any(item.get_closest_marker(m) for m in ("slow", "soak")) else UNTIMED
-
-    items.sort(key=lambda item: -expected(item))
-
-
-@pytest.hookimpl(optionalhook=True)
-def pytest_configure_node(node) -> None:
-    """Give each xdist worker the durations this process read, so they all sort the same."""
-    node.workerinput["twig_durations"] = known_durations(node.config)
-
-
-class Durations:
-    """Notes how long each test took (set-up, call and teardown) and keeps it in pytest's
-    cache at the end of the run, for the next run's order. In the process that started
-    the run, which sees every worker's reports."""
-
-    def __init__(self, cache) -> None:
-        self.cache = cache
-        self.took: dict[str, float] = {}
-
-    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
-        self.took[report.nodeid] = self.took.get(report.nodeid, 0.0) + report.duration
-
-    def pytest_sessionfinish(self) -> None:
-        if self.took:
-            known = self.cache.get(DURATIONS_KEY, {})
-            self.cache.set(DURATIONS_KEY, {**known, **{k: round(v, 2) for k, v in self.took.items()}})
-
-
-def pytest_configure(config: pytest.Config) -> None:
-    """Time the tests for the next run's order (see :class:`Durations`)."""
-    if not hasattr(config, "workerinput") and getattr(config, "cache", None) is not None:
-        config.pluginmanager.register(Durations(config.cache), "twig-durations")
+    items.sort(key=lambda item: not any(item.get_closest_marker(mark) for mark in ("slow", "soak")))
 
 
 @pytest.hookimpl(optionalhook=True)
