@@ -22,28 +22,21 @@ def max_overlap_between_bodies(scene) -> float:
     """Deepest overlap (m) between colliders of different bodies (0 if none)."""
     st = scene.state
     n, lk = st.nodes, st.links
-    shapes = []  # (body, a, b, radius)
-    for j in range(lk.count):
-        if lk.flags[j] & LINK_COLLIDE:
-            shapes.append((lk.body[j], n.pos[lk.a[j]], n.pos[lk.b[j]], lk.radius[j]))
-    for i in range(n.count):
-        if n.flags[i] & NODE_SPHERE:
-            shapes.append((n.body[i], n.pos[i], n.pos[i], n.radius[i]))
+    links = np.nonzero(lk.flags[: lk.count] & LINK_COLLIDE)[0]
+    spheres = np.nonzero(n.flags[: n.count] & NODE_SPHERE)[0]
+    # every collider as a capsule (body, end a, end b, radius); a sphere's ends coincide
+    body = np.concatenate([lk.body[links], n.body[spheres]])
+    a = np.concatenate([n.pos[lk.a[links]], n.pos[spheres]])
+    b = np.concatenate([n.pos[lk.b[links]], n.pos[spheres]])
+    radius = np.concatenate([lk.radius[links], n.radius[spheres]])
+    # cheap reject on bounding boxes, for every pair at once; the pairs left are measured
+    lo = np.minimum(a, b) - radius[:, None]
+    hi = np.maximum(a, b) + radius[:, None]
+    x, y = np.triu_indices(len(body), k=1)
+    near = (body[x] != body[y]) & (lo[x] <= hi[y]).all(axis=1) & (lo[y] <= hi[x]).all(axis=1)
     worst = 0.0
-    for x in range(len(shapes)):
-        bx, ax, cx, rx = shapes[x]
-        for y in range(x + 1, len(shapes)):
-            by, ay, cy, ry = shapes[y]
-            if bx == by:
-                continue
-            # cheap reject on bounding boxes
-            lo = np.minimum(ax, cx) - rx
-            hi = np.maximum(ax, cx) + rx
-            lo2 = np.minimum(ay, cy) - ry
-            hi2 = np.maximum(ay, cy) + ry
-            if np.any(lo > hi2) or np.any(lo2 > hi):
-                continue
-            worst = max(worst, rx + ry - _closest(ax, cx, ay, cy))
+    for i, j in zip(x[near], y[near], strict=True):
+        worst = max(worst, radius[i] + radius[j] - _closest(a[i], b[i], a[j], b[j]))
     return worst
 
 

@@ -12,6 +12,7 @@ together. Stock ``lint-imports`` reads the same package through the checkout's
 from __future__ import annotations
 
 import ast
+import functools
 import io
 import subprocess
 import sys
@@ -90,15 +91,28 @@ def module_imports(name: str, path: Path, known: set[str]) -> list[tuple[str, in
     return found
 
 
-def package_graph(root: Path = ROOT) -> grimp.ImportGraph:
-    """The package's import graph (a grimp graph, as import-linter checks)."""
+@functools.cache
+def _package_imports(root: Path) -> tuple[tuple[str, ...], tuple[tuple[str, str, int, str], ...]]:
+    """Every module of the package and every import between them, read from the sources once
+    per run (the sources do not change under the tests; several tests read the graph)."""
     modules = package_modules(root)
+    imports = tuple(
+        (name, imported, line, text)
+        for name, path in modules.items()
+        for imported, line, text in module_imports(name, path, set(modules))
+    )
+    return tuple(modules), imports
+
+
+def package_graph(root: Path = ROOT) -> grimp.ImportGraph:
+    """The package's import graph (a grimp graph, as import-linter checks): a new one each
+    call, which the caller may change."""
+    modules, imports = _package_imports(root)
     graph = grimp.ImportGraph()
     for name in modules:
         graph.add_module(name)
-    for name, path in modules.items():
-        for imported, line, text in module_imports(name, path, set(modules)):
-            graph.add_import(importer=name, imported=imported, line_number=line, line_contents=text)
+    for name, imported, line, text in imports:
+        graph.add_import(importer=name, imported=imported, line_number=line, line_contents=text)
     return graph
 
 

@@ -160,7 +160,7 @@ def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
     table = tmp_path / "table.csv"
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
     sweep = subprocess.Popen([sys.executable, "-m", "twig_ecs", "sweep", "schoolyard", "--seeds", "0-9",
-                              "--seconds", "20", "-o", str(table)], stdout=subprocess.PIPE,
+                              "--seconds", "5", "-o", str(table)], stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, text=True, env=env)  # fmt: skip
     said = []
     for line in sweep.stdout:  # the progress: stop it once a run is in
