@@ -134,3 +134,26 @@ def test_two_sent_to_one_bench_sit_side_by_side():
         assert [g.status for g in goals] == ["done", "done"], [g.reason for g in goals]
         assert ann.posture == bob.posture == "sit"
         assert abs(ann.position[0] - bob.position[0]) > 0.5, "a body's width apart"
+
+
+@pytest.mark.parametrize("wait", [0.05, 0.1])
+def test_the_playgrounds_stander_sits_beside_the_sitter_on_its_bench(wait):
+    """The playground's stander, sent to the bench the sitter already sits on (the window's
+    click-and-6), sits beside it. It comes in at a slant and its hips end up turned across
+    the seat's front edge, so its pelvis comes to rest on the lower spine's thicker capsule
+    4 cm above the hip bar's seated height: that is sitting on the bench, not 'something in
+    the way' (on straight legs, started 0.05 or 0.1 s in, the goal failed so)."""
+    with Scene.load("playground") as scene:
+        stander, bench = scene.entity("stander"), scene.entity("bench")
+        scene.run(wait)
+        goal = stander.do("sit", on="bench")
+        began = scene.time
+        while not goal.finished and scene.time - began < 12.0:
+            scene.step()
+        assert goal.status == "done", goal.reason
+        assert stander.posture == "sit"
+        over_seat = stander.position[1] - PELVIS_BAR - seat_top(scene, "bench")
+        assert -0.03 < over_seat < 0.08  # the pelvis on the seat, not hovering or fallen through
+        seat = bench.node_positions[:4]  # the four seat corners
+        lo, hi = seat.min(axis=0) - 0.35, seat.max(axis=0) + 0.35
+        assert lo[0] <= stander.position[0] <= hi[0] and lo[2] <= stander.position[2] <= hi[2]

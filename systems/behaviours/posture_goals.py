@@ -111,6 +111,17 @@ def hands_on_thighs(character) -> None:
         character.reach(tuple(thigh + np.array([0.0, 0.08 * character.scale, 0.0])), hand=hand)
 
 
+def on_seat(character, height: float) -> bool:
+    """Whether the pelvis sits at ``height`` (``character.seat``'s: the hip bar on the seat's
+    top), within ``SEATED``, or higher by as much as the lower spine's capsule is thicker
+    than the hip bar: then that capsule rests on the seat (the pelvis came down behind the
+    hip bar, as it does when the hips end up turned across the seat's front edge)."""
+    nodes = character.scene.state.nodes
+    rows = character.node_row("pelvis"), character.node_row("l_hip")
+    thicker = max(0.0, float(nodes.radius[rows[0]] - nodes.radius[rows[1]]))
+    return -SEATED < character.position[1] - height < SEATED + thicker
+
+
 def _smooth(x: float) -> float:
     """0 to 1 with zero slope at both ends (a smoothstep)."""
     x = min(1.0, max(0.0, x))
@@ -273,9 +284,7 @@ class SitDown(Behavior):
         hands_on_thighs(character)
         if t < 1.0:
             return
-        resting = (
-            abs(character.position[1] - m["height"]) < SEATED and np.linalg.norm(character.velocity) < RESTING
-        )
+        resting = on_seat(character, m["height"]) and np.linalg.norm(character.velocity) < RESTING
         if resting and character.posture == "sit":
             character.lean(None)
             character.pose("hang")
