@@ -62,7 +62,8 @@ STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip ste
 STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
-DOWN = 0.4  # of standing height: a pelvis below it is down on the ground (it gets up: posture.py)
+DOWN = 0.3  # of standing height: a pelvis below it is down on the ground (it gets up through a kneel:
+# posture.py; from higher, a deep fold, it rises at the posture's GET_UP rate)
 WALK_HEIGHT = 1.0  # of a planted leg's length: how far its hip rides from its foot at a walk (straight)
 HEEL_RISE = 0.16  # of the leg's length: the most a trailing foot's heel comes up in double support
 HEEL_DROP = 1.0  # leg lengths per second: how fast a heel no longer held up comes down

@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from twig_ecs.components import Character
 from twig_ecs.kernelmath import (
     HANG,
     HEAD,
@@ -188,7 +189,7 @@ def sink_speed(pos, flags, nd, legs):
 
 
 @njit(cache=True, nogil=True)
-def control_posture(args, n_chars, gravity, dt):
+def control_posture(args, n_chars, gravity, dt, holding):
     """Add posture accelerations for every character (see the module docstring; ``args``:
     ``store.columns(PostureColumns, nodes, characters)``)."""
     cols = PostureColumns(*args)
@@ -396,7 +397,7 @@ def control_posture(args, n_chars, gravity, dt):
         if mode[c] == RISE and from_ground:
             # a hand not holding or doing anything pushes on its thigh, as a person's does
             for side in range(2):
-                if cols.arm_mode[c, side] != HANG:
+                if cols.arm_mode[c, side] != HANG or holding[c, side]:
                     continue
                 hand, hip, knee = nd[L_HAND + side], nd[L_HIP + side], nd[L_KNEE + side]
                 for k in range(3):
@@ -511,4 +512,9 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
-        control_posture(columns(PostureColumns, n, ch), ch.count, g, dt)
+        holding = np.zeros((ch.count, 2), dtype=np.bool_)
+        if (ch.mode[: ch.count] == RISE).any():  # (a hand that holds something is not put on a thigh)
+            for _, character in ctx.world.get_component(Character):
+                for side, hand in enumerate(("left", "right")):
+                    holding[character.index, side] = hand in character.holding
+        control_posture(columns(PostureColumns, n, ch), ch.count, g, dt, holding)
