@@ -105,7 +105,7 @@ REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and g
 CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
 WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root of its size:
 # bodies of other sizes walk alike at equal Froude numbers - a 1.05 m child ~1.0 m/s)
-RUN_FROUDE = 1.2  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
+RUN_FROUDE = 0.8  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
 BRAKE = 1.5  # m/s^2: how hard the walk-up slows over its last steps (a person stops within a step)
 SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug (turning back
 # to face each other brings them in a little: they end 0.8-0.9 m apart)

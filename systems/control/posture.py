@@ -209,8 +209,11 @@ def control_posture(args, n_chars, gravity, dt, holding):
         if mode[c] == RISE and mode_time[c] > (GETUP_TIME if from_ground else RISE_TIME):
             mode[c] = STAND
             mode_time[c] = 0.0
-        elif mode[c] == STAND and pos[p, 1] < DOWN * stand_height[c] < stand_height[c] - crouch[c]:
-            # gone down (not stooping that low on purpose): get up from here
+        elif (mode[c] == STAND and pos[p, 1] < DOWN * stand_height[c] < stand_height[c] - crouch[c]
+              and not (holding[c, 0] or holding[c, 1])):
+            # gone down (not stooping that low on purpose): get up from here, through a kneel -
+            # unless it holds something (its feet stepping in under it would tread on a doll it
+            # carries: it rises at the GET_UP rate instead)
             mode[c] = RISE
             mode_time[c] = 0.0
             for k in range(3):
@@ -512,8 +515,10 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
+        # which hands hold something: not put on a thigh, and no kneel for those who carry
         holding = np.zeros((ch.count, 2), dtype=np.bool_)
-        if (ch.mode[: ch.count] == RISE).any():  # (a hand that holds something is not put on a thigh)
+        low = n.pos[ch.nodes[: ch.count, PELVIS], 1] < DOWN * ch.stand_height[: ch.count]
+        if (ch.mode[: ch.count] == RISE).any() or low.any():
             for _, character in ctx.world.get_component(Character):
                 for side, hand in enumerate(("left", "right")):
                     holding[character.index, side] = hand in character.holding
