@@ -82,8 +82,6 @@ RISE_TIME = 0.8  # s to stand up from sitting
 KNEEL = 0.55
 KNEEL_TIME, KNEEL_HOLD, STAND_UP_TIME = 0.5, 0.3, 0.8
 RISE_LAG = 0.15  # of standing height: a pelvis this far below the rise's target holds its clock
-GET_UP = 0.5  # standing heights per second: the fastest a standing pelvis below GET_UP_TO rises ...
-GET_UP_TO = 0.8  # ... of its standing height (from 40%: ~0.9 s to 90%)
 HANDS_GAIN, HANDS_DAMP = 60.0, 12.0  # free hands pressed to the thighs as it gets up (not flung up)
 GETUP_TIME = KNEEL_TIME + KNEEL_HOLD + STAND_UP_TIME
 MAX_ACC = 80.0  # m/s^2: no controller pushes harder
@@ -143,11 +141,8 @@ def control_posture(args, n_chars, gravity, dt, holding):
         if mode[c] == RISE and mode_time[c] > (GETUP_TIME if from_ground else RISE_TIME):
             mode[c] = STAND
             mode_time[c] = 0.0
-        elif (mode[c] == STAND and pos[p, 1] < DOWN * stand_height[c] < stand_height[c] - crouch[c]
-              and not (holding[c, 0] or holding[c, 1])):
-            # gone down (not stooping that low on purpose): get up from here, through a kneel -
-            # unless it holds something (its feet stepping in under it would tread on a doll it
-            # carries)
+        elif mode[c] == STAND and pos[p, 1] < DOWN * stand_height[c] < stand_height[c] - crouch[c]:
+            # gone down (not stooping that low on purpose): get up from here, through a kneel
             mode[c] = RISE
             mode_time[c] = 0.0
             for k in range(3):
@@ -248,10 +243,6 @@ def control_posture(args, n_chars, gravity, dt, holding):
                     target_vy = top_rate
             target_y -= crouch[c]  # stooping to reach something low
         ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy)
-        if mode[c] == STAND and pos[p, 1] < GET_UP_TO * stand_height[c]:
-            # up from low without a kneel (a fold, a deep stoop, a fall with something held):
-            # the pelvis rises at most GET_UP standing heights a second, not in a 0.2 s pop
-            ay = min(ay, HEIGHT_DAMP * (GET_UP * stand_height[c] - vpy))
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
@@ -406,7 +397,7 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
-        # which hands hold something: not put on a thigh, and no kneel for those who carry
+        # which hands hold something: not put on a thigh as it gets up
         holding = np.zeros((ch.count, 2), dtype=np.bool_)
         low = n.pos[ch.nodes[: ch.count, PELVIS], 1] < DOWN * ch.stand_height[: ch.count]
         if (ch.mode[: ch.count] == RISE).any() or low.any():
