@@ -68,8 +68,8 @@ DEFEND = 0.9  # activation of squaring up to a fighter: above play, rides and go
 SQUARE_UP = 2.0  # m (ground): a fighter this near is faced
 TURN_PACE = 0.25  # m/s (at 1.75 m tall) of the steps round to face it
 FACED = 0.8  # cosine: facing it this squarely is facing it
-COUNTER_AFTER = 0.0  # s after its stagger that a defender starts to shove back
-COUNTER_LOAD = 0.15  # s it draws its hands back for that shove (quicker than the fighter's)
+COUNTER_AFTER = 0.1  # s after its stagger that a defender starts to shove back
+COUNTER_LOAD = 0.2  # s it draws its hands back for that shove (quicker than the fighter's)
 BLOCK_SPEED = 2.0  # m/s: a fist coming at it this fast...
 BLOCK_NEAR = 0.7  # m (at 1.75 m tall): ... and this near its neck is blocked with a forearm
 

@@ -7,10 +7,10 @@ seconds. Its activation beats any commanded goal, so it wins at once; afterwards
 interrupted goal carries on.
 
 The retreat is in proportion to the masses: struck by a body lighter than itself (a child
-bumping into a grown-up, a ball), it backs off and walks away slower, by the share
-``source mass / own mass`` (at most 1), and for less time, by its square, so the distance
-goes by its cube - a grown-up knocked by a child of half its weight flinches, a few tenths
-of a metre, and stands its ground; a ball that hurts makes it flinch on the spot.
+bumping into a grown-up, a ball), it backs off and walks away slower and for less time,
+both by the share ``source mass / own mass`` (at most 1), so the distance goes by its
+square - a grown-up knocked by a child of half its weight flinches, a few tenths of a
+metre, and stands its ground; a ball that hurts makes it flinch on the spot.
 """
 
 from __future__ import annotations
@@ -82,11 +82,9 @@ class Withdraw(Behavior):
             away = away / norm if norm > 1e-6 else -me.facing
             now = scene.time
             share = mass_share(scene, event.source_body, event.body)
-            # times by the square of the share too (distances by its cube): with straight legs
-            # a grown-up coasts ~0.3 m after it stops, and a child's bump sent it 0.76 m
-            stagger = max(FLINCH, DURATION * share * share)
+            stagger = max(FLINCH, DURATION * share)
             # a new blow restarts the retreat (the component, if one is under way, is renewed)
-            until = now + stagger + TURN_AWAY * share * share
+            until = now + stagger + TURN_AWAY * share
             retreat = Withdrawing(until, now + stagger, away, event.source_body, share)
             ctx.world.add_component(event.body, retreat)
         super().run(ctx)
