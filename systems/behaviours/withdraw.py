@@ -5,12 +5,6 @@ body that hurt it - for ``DURATION`` seconds it backs off at ``SPEED`` with its 
 and its eyes on the source - then turns its back on it and walks away for ``TURN_AWAY``
 seconds. Its activation beats any commanded goal, so it wins at once; afterwards the
 interrupted goal carries on.
-
-The retreat is in proportion to the masses: struck by a body lighter than itself (a child
-bumping into a grown-up, a ball), it backs off and walks away slower and for less time,
-both by the share ``source mass / own mass`` (at most 1), so the distance goes by its
-square - a grown-up knocked by a child of half its weight flinches, a few tenths of a
-metre, and stands its ground; a ball that hurts makes it flinch on the spot.
 """
 
 from __future__ import annotations
@@ -20,10 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Body, Character
+from twig_ecs.components import Character
 from twig_ecs.step import StepContext
-from twig_ecs.store import NODE_LOCKED
-from twig_ecs.systems.behaviours.footwork import pivot
 
 
 @dataclass(slots=True)
@@ -34,31 +26,13 @@ class Withdrawing:
     stagger_until: float  # s the stagger back, facing the source, ends; it walks away after
     away: np.ndarray  # unit vector on the ground away from the source
     source: int  # entity of the body that hurt it
-    share: float = 1.0  # the source's mass over its own (at most 1): speeds are scaled by it
 
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
 TURN_AWAY = 1.2  # s of walking away afterwards, its back to the source
 AWAY_PACE = 0.9  # m/s (at 1.75 m tall, by the root of scale like SPEED)
-FLINCH = 0.25  # s: the shortest stagger, however light what hurt it (a flinch reads)
 ACTIVATION = 1.3  # beats goals (0.8) by more than select_behavior's URGENT margin
-
-
-def mass_share(scene, source: int, body: int) -> float:
-    """How hard a blow from ``source`` moves ``body``: the source's mass over the body's, at
-    most 1 (1 too for a source fixed in place - every node locked: a post, a fence - or unknown)."""
-    theirs = scene.world.try_component(source, Body)
-    mine = scene.world.try_component(body, Body)
-    if theirs is None or mine is None:
-        return 1.0
-    nodes = scene.state.nodes
-    rows = slice(theirs.node_start, theirs.node_start + len(theirs.node_names))
-    if (nodes.flags[rows] & NODE_LOCKED).all():  # (a character's planted foot is locked too)
-        return 1.0
-    heavy = float(nodes.mass[rows].sum())
-    own = float(nodes.mass[mine.node_start : mine.node_start + len(mine.node_names)].sum())
-    return min(1.0, heavy / own) if own > 0.0 else 1.0
 
 
 @register
@@ -81,12 +55,9 @@ class Withdraw(Behavior):
             norm = float(np.linalg.norm(away))
             away = away / norm if norm > 1e-6 else -me.facing
             now = scene.time
-            share = mass_share(scene, event.source_body, event.body)
-            stagger = max(FLINCH, DURATION * share)
             # a new blow restarts the retreat (the component, if one is under way, is renewed)
-            until = now + stagger + TURN_AWAY * share
-            retreat = Withdrawing(until, now + stagger, away, event.source_body, share)
-            ctx.world.add_component(event.body, retreat)
+            ctx.world.add_component(event.body, Withdrawing(now + DURATION + TURN_AWAY, now + DURATION, away,
+                                                        event.source_body))  # fmt: skip
         super().run(ctx)
 
     def candidates(self) -> list[tuple[int, Mind]]:
@@ -106,14 +77,13 @@ class Withdraw(Behavior):
         retreat = self.world.component_for_entity(character.entity, Withdrawing)
         away = retreat.away
         if retreat.stagger_until > self.scene.time:
-            character.walk(away * SPEED * retreat.share * character.scale**0.5)
-            pivot(character, -away)  # backing off, still facing it (the gait would turn to walk away)
+            character.walk(away * SPEED * character.scale**0.5)
             character.pose("grapple")
             source = self.scene.name_of(retreat.source)
             if source and source != character.name:
                 character.look_at(source)
             return
-        character.walk(away * AWAY_PACE * retreat.share * character.scale**0.5)  # facing where it goes
+        character.walk(away * AWAY_PACE * character.scale**0.5)  # facing where it goes
         character.pose("hang")
         character.look_at(None)
 
