@@ -86,8 +86,10 @@ def test_a_character_held_down_gets_up_only_once_let_go_and_still_takes_its_time
     scenes.append(scene)
     person = scene.spawn("humanoid", name="p", character=True)
     rises = RiseRecorder(scene)
-    scene.run(0.5)
-    for _ in range(60):  # pressed to the ground for a second (someone on top of it)
+    person.go_limp()
+    scene.run(1.5)  # on the ground
+    person.stand()
+    for _ in range(60):  # told to stand, but pressed to the ground for a second (someone on top of it)
         for node in ("pelvis", "neck", "l_shoulder", "r_shoulder"):
             person.apply_force(node, (0.0, -1500.0, 0.0))
         scene.step()
