@@ -107,13 +107,15 @@ def test_a_run_whose_worker_dies_twice_is_an_error_row():
     assert "its worker died 2 times (exit -9" in done[0]["error"]
 
 
-def test_sweep_arguments_and_dotted_overrides_fail_clearly(capsys):
+def test_sweep_arguments_and_dotted_overrides_fail_clearly(capsys, tmp_path):
     assert main(["sweep", "schoolyard", "--seeds", "3-x"]) == 2
     assert "--seeds: '3-x' is not a seed or a range" in capsys.readouterr().err
     assert main(["sweep", "schoolyard", "--set", "attachment.safe_distance"]) == 2
     assert "expected NAME=VALUE[,VALUE...]" in capsys.readouterr().err
-    assert main(["sweep", "schoolyard", "--set", "atachment.safe_distance=3", "-o", "x.csv"]) == 2
+    table = tmp_path / "x.csv"
+    assert main(["sweep", "schoolyard", "--set", "atachment.safe_distance=3", "-o", str(table)]) == 2
     assert "(did you mean 'attachment'?)" in capsys.readouterr().err
+    assert not table.exists(), "a typo fails the sweep before any run or table"
     with pytest.raises(SceneError, match="'settings.iterations' is not a mapping"):
         Scene.load("schoolyard", **{"settings.iterations.x": 3})
 
