@@ -589,6 +589,15 @@ def _within(pos, a, b, c, d, reach):
     return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
 
 
+@njit(cache=True, inline="always")
+def _capsules_near(pos, col_a, col_b, col_r, i, j, margin):
+    """Are colliders ``i`` and ``j`` within ``margin`` of touching (a box test first: most
+    candidate pairs are surely apart)?"""
+    reach = col_r[i] + col_r[j] + margin
+    a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
+    return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
+
+
 @njit(cache=True, nogil=True)
 def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
     """Marks in ``is_near`` the candidate pairs (first ``n_pairs`` of ``pairs``) whose capsules
@@ -600,11 +609,7 @@ def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
     for k in range(n_pairs):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        reach = col_r[i] + col_r[j] + margin
-        a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
-        is_near[k] = (
-            not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
-        )
+        is_near[k] = _capsules_near(pos, col_a, col_b, col_r, i, j, margin)
         if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
@@ -669,11 +674,7 @@ def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
         i = pairs[k, 0]
         j = pairs[k, 1]
         if col_moved[i] | col_moved[j]:
-            reach = col_r[i] + col_r[j] + CONTACT_MARGIN
-            a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
-            is_near[k] = (
-                not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
-            )
+            is_near[k] = _capsules_near(pos, col_a, col_b, col_r, i, j, CONTACT_MARGIN)
         if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
