@@ -53,9 +53,10 @@ class GlanceSystem(System):
         still &= walk[:, 0] ** 2 + walk[:, 2] ** 2 < STILL
         # only the idle: a behaviour or a goal that stands still a moment (turning to face a
         # seat, reaching for a wrist, waiting its turn) is looking at what it does
-        busy_rows = [character.index for _, (character, mind) in ctx.world.get_components(Character, Mind)
-                     if mind.winner != "idle" or mind.goals]  # fmt: skip
-        still[busy_rows] = False
+        if still.any():  # (a walking crowd: no loop over its minds)
+            busy_rows = [character.index for _, (character, mind) in ctx.world.get_components(Character, Mind)
+                         if mind.winner != "idle" or mind.goals]  # fmt: skip
+            still[busy_rows] = False
         glance, left = ch.glance[:n], ch.glance_left[:n]
         busy = ~still
         glance[busy] = 0.0

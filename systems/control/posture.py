@@ -392,10 +392,9 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
-        # which hands hold something: not put on a thigh as it gets up
+        # which hands hold something: not put on a thigh as it gets up (only rising reads it)
         holding = np.zeros((ch.count, 2), dtype=np.bool_)
-        low = n.pos[ch.nodes[: ch.count, PELVIS], 1] < DOWN * ch.stand_height[: ch.count]
-        if (ch.mode[: ch.count] == RISE).any() or low.any():
+        if (ch.mode[: ch.count] == RISE).any():
             for _, character in ctx.world.get_component(Character):
                 for side, hand in enumerate(("left", "right")):
                     holding[character.index, side] = hand in character.holding
