@@ -33,6 +33,24 @@ MAX_YAW = math.radians(75.0)  # from the shoulders
 MAX_PITCH = math.radians(60.0)
 
 
+@njit(cache=True, inline="always")
+def _turn_towards(direction, c, want_x, want_y, want_z, most, ox, oy, oz):
+    """Turn unit vector ``direction[c]`` towards the unit (want_x, want_y, want_z) by at most
+    ``most`` radians; one exactly opposite turns to (ox, oy, oz) instead."""
+    cx, cy, cz = direction[c, 0], direction[c, 1], direction[c, 2]
+    angle = math.acos(clamp(cx * want_x + cy * want_y + cz * want_z, -1.0, 1.0))
+    t = 1.0 if angle <= most else most / angle
+    nx = cx + t * (want_x - cx)
+    ny = cy + t * (want_y - cy)
+    nz = cz + t * (want_z - cz)
+    nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if nn < 1e-9:
+        nx, ny, nz, nn = ox, oy, oz, 1.0
+    direction[c, 0] = nx / nn
+    direction[c, 1] = ny / nn
+    direction[c, 2] = nz / nn
+
+
 # fmt: off
 @njit(cache=True, nogil=True)
 def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, glance, head_dir, face_dir, n_chars, dt):
@@ -67,20 +85,8 @@ def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, glance, hea
         want_x = math.sin(base + yaw) * math.cos(pitch)
         want_y = math.sin(pitch)
         want_z = math.cos(base + yaw) * math.cos(pitch)
-        # turn at most TURN_RATE * dt towards it
-        cx, cy, cz = head_dir[c, 0], head_dir[c, 1], head_dir[c, 2]
-        cos_a = clamp(cx * want_x + cy * want_y + cz * want_z, -1.0, 1.0)
-        angle = math.acos(cos_a)
-        t = 1.0 if angle <= TURN_RATE * dt else TURN_RATE * dt / angle
-        nx = cx + t * (want_x - cx)
-        ny = cy + t * (want_y - cy)
-        nz = cz + t * (want_z - cz)
-        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if nn < 1e-9:  # exactly opposite: turn via the shoulders' forward
-            nx, ny, nz, nn = sx, 0.0, sz, 1.0
-        head_dir[c, 0] = nx / nn
-        head_dir[c, 1] = ny / nn
-        head_dir[c, 2] = nz / nn
+        # turn at most TURN_RATE * dt towards it (exactly opposite: via the shoulders' forward)
+        _turn_towards(head_dir, c, want_x, want_y, want_z, TURN_RATE * dt, sx, 0.0, sz)
         # the drawn face: the head's direction, or a glance away from it - only drawn (and
         # exported): the shoulders and what the character notices go by head_dir
         want_x, want_y, want_z = head_dir[c, 0], head_dir[c, 1], head_dir[c, 2]
@@ -90,18 +96,7 @@ def control_gaze(pos, nodes, gaze_mode, gaze_point, gaze_node, walk, glance, hea
             want_x = math.sin(turn) * math.cos(up)
             want_y = math.sin(up)
             want_z = math.cos(turn) * math.cos(up)
-        cx, cy, cz = face_dir[c, 0], face_dir[c, 1], face_dir[c, 2]
-        angle = math.acos(clamp(cx * want_x + cy * want_y + cz * want_z, -1.0, 1.0))
-        t = 1.0 if angle <= TURN_RATE * dt else TURN_RATE * dt / angle
-        nx = cx + t * (want_x - cx)
-        ny = cy + t * (want_y - cy)
-        nz = cz + t * (want_z - cz)
-        nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-        if nn < 1e-9:
-            nx, ny, nz, nn = want_x, want_y, want_z, 1.0
-        face_dir[c, 0] = nx / nn
-        face_dir[c, 1] = ny / nn
-        face_dir[c, 2] = nz / nn
+        _turn_towards(face_dir, c, want_x, want_y, want_z, TURN_RATE * dt, want_x, want_y, want_z)
 # fmt: on
 
 
