@@ -67,12 +67,8 @@ def getup_sheet(output, height: float = 1.75, frames: int = 12, every: float = 0
     """A contact sheet PNG of a ``height`` m character getting up: a ragdoll for 2 s, then
     told to :meth:`~twig_ecs.character.CharacterHandle.stand`, a frame every ``every`` s from
     then. Returns the path written."""
-    import math
-
-    from PIL import Image
-
     from twig_ecs.graphics.camera import OrbitCamera
-    from twig_ecs.graphics.offscreen import OffscreenRenderer, check_output
+    from twig_ecs.graphics.offscreen import check_output, contact_sheet
 
     path = check_output(output)
     scene = Scene.load("empty")
@@ -81,17 +77,13 @@ def getup_sheet(output, height: float = 1.75, frames: int = 12, every: float = 0
         person.go_limp()
         scene.run(2.0)
         person.stand()
-        sheet = Image.new("RGB", (columns * size[0], math.ceil(frames / columns) * size[1]), "white")
-        with OffscreenRenderer() as off:
-            for k in range(frames):
-                target = person.position.copy()
-                target[1] = 0.45 * height
-                camera = OrbitCamera(target, yaw=60.0, pitch=10.0, distance=1.8 * height)
-                image = Image.fromarray(off.render(scene, camera, size))
-                sheet.paste(image, ((k % columns) * size[0], (k // columns) * size[1]))
-                scene.run(every)
-        sheet.convert("RGB").save(path)
-        return path
+
+        def three_quarter_view() -> OrbitCamera:
+            target = person.position.copy()
+            target[1] = 0.45 * height
+            return OrbitCamera(target, yaw=60.0, pitch=10.0, distance=1.8 * height)
+
+        return contact_sheet(scene, path, three_quarter_view, frames, every, size, columns)
     finally:
         scene.close()
 

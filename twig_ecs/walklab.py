@@ -265,10 +265,9 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
                   every: float = 0.1, size: tuple[int, int] = (320, 320),
                   columns: int = 6) -> Path:  # fmt: skip
     """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
-    from PIL import Image
-
     from twig_ecs.graphics.camera import OrbitCamera
-    from twig_ecs.graphics.offscreen import OffscreenRenderer, check_output
+    from twig_ecs.graphics.offscreen import check_output
+    from twig_ecs.graphics.offscreen import contact_sheet as draw_sheet
 
     path = check_output(output)
     scene = _scene()
@@ -276,19 +275,14 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
         person = _walker(scene, "walker", height)
         person.walk((0.0, 0.0, speed))
         scene.run(2.5)
-        rows = math.ceil(frames / columns)
-        sheet = Image.new("RGB", (columns * size[0], rows * size[1]), "white")
-        with OffscreenRenderer() as off:
-            for k in range(frames):
-                target = person.position.copy()
-                target[1] = 0.5 * height * 0.95
-                # side view: the camera on the character's left (+x), level with its hips
-                cam = OrbitCamera(target, yaw=90.0, pitch=5.0, distance=1.8 * height)
-                image = Image.fromarray(off.render(scene, cam, size))
-                sheet.paste(image, ((k % columns) * size[0], (k // columns) * size[1]))
-                scene.run(every)
-        sheet.save(path)
-        return path
+
+        def side_view() -> OrbitCamera:
+            target = person.position.copy()
+            target[1] = 0.5 * height * 0.95
+            # side view: the camera on the character's left (+x), level with its hips
+            return OrbitCamera(target, yaw=90.0, pitch=5.0, distance=1.8 * height)
+
+        return draw_sheet(scene, path, side_view, frames, every, size, columns)
     finally:
         scene.close()
 

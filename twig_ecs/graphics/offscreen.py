@@ -163,6 +163,21 @@ class _FrameWriter:
             self.frames[-1].save(self.path)
 
 
+def contact_sheet(scene, path: Path, camera_of, frames: int, every: float, size: tuple[int, int],
+                  columns: int) -> Path:  # fmt: skip
+    """Draw ``frames`` pictures of ``scene`` ``every`` simulated seconds apart (from now, the scene
+    run on between them), each from ``camera_of()``'s camera, into one sheet of ``columns``
+    columns written to ``path`` (checked by :func:`check_output`); returns the path."""
+    sheet = Image.new("RGB", (columns * size[0], math.ceil(frames / columns) * size[1]), "white")
+    with OffscreenRenderer() as off:
+        for k in range(frames):
+            image = Image.fromarray(off.render(scene, camera_of(), size))
+            sheet.paste(image, ((k % columns) * size[0], (k // columns) * size[1]))
+            scene.run(every)
+    sheet.save(path)
+    return path
+
+
 def check_output(output: str | Path) -> Path:
     """Validate the output path: a known suffix and an existing folder."""
     path = Path(output)
