@@ -16,8 +16,8 @@ from twig_ecs import Scene
 SECONDS = 20.0
 
 
-def _head_yaws(scene, person, seconds):
-    """The face's yaw from the hips' facing (degrees), every step for ``seconds``."""
+def _face_yaws(scene, person, seconds):
+    """The drawn face's yaw from the hips' facing (degrees), every step for ``seconds``."""
     out = []
     for _ in range(int(round(seconds / scene.dt))):
         scene.step()
@@ -38,7 +38,7 @@ def test_a_character_standing_idle_glances_about_and_comes_back_with_its_feet_pl
     person = scene.spawn("humanoid", name="waiting", character=True)
     scene.run(0.5)
     feet = [person.node("l_foot").copy(), person.node("r_foot").copy()]
-    yaws = _head_yaws(scene, person, SECONDS)
+    yaws = _face_yaws(scene, person, SECONDS)
     # before: the face stayed within a degree of the hips' facing for the 20 s (a statue)
     assert _glances(yaws) >= 3, f"{_glances(yaws)} glances in {SECONDS:.0f} s"
     assert 15.0 <= np.abs(yaws).max() <= 45.0
@@ -57,7 +57,7 @@ def test_a_walking_or_watching_character_does_not_glance_about(scenes):
     watcher.look_at("walker")
     walker.walk((0.0, 0.0, 1.0))
     scene.run(0.5)
-    yaws = _head_yaws(scene, walker, 8.0)
+    yaws = _face_yaws(scene, walker, 8.0)
     assert np.abs(yaws).max() < 12.0, "walking, the face goes the way it walks"
     glance = scene.state.characters.glance
     assert not glance[walker.character_row, :2].any() and not glance[watcher.character_row, :2].any()
@@ -73,7 +73,7 @@ def test_a_glance_moves_nothing_but_the_drawn_face(scenes, monkeypatch):
         scenes.append(scene)
         person = scene.spawn("humanoid", name="p", character=True)
         scene.state.characters.glance_left[:] = first_wait
-        yaws = _head_yaws(scene, person, 10.0)
+        yaws = _face_yaws(scene, person, 10.0)
         assert (_glances(yaws) >= 2) == (first_wait < 100), _glances(yaws)
         hashes.append(scene.state_hash())
     # the shoulders, the feet and what the character notices go by where the head points
@@ -86,5 +86,5 @@ def test_glances_come_out_the_same_in_every_run(scenes):
         scene = Scene.load("empty")
         scenes.append(scene)
         person = scene.spawn("humanoid", name="waiting", character=True)
-        runs.append(_head_yaws(scene, person, 8.0))
+        runs.append(_face_yaws(scene, person, 8.0))
     assert np.array_equal(runs[0], runs[1])
