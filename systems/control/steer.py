@@ -172,7 +172,7 @@ def _skipped(skip, n_skip, b):
 
 
 @njit(cache=True, nogil=True)
-def _obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
+def row_obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
     """Row k's obstacles into ``at.obstacles``; returns how many. The order is fixed: walls,
     wide bodies (the rim point nearest; from inside, the centre), then the nearest node of
     every other body higher than a step (bodies in the order of their first node)."""
@@ -315,7 +315,7 @@ def steer_rows(at: Around, rows: Walkers, gains: Gains, walk, mode, now, dt):
         squeezing = rows.squeeze[k] != 0 and now < rows.squeeze_until[k]
         push = gains.repulsion * gains.squeeze if squeezing else gains.repulsion
         lo = rows.skip_start[k]
-        n_obs = _obstacles(at, hx, hy, hz, rows.me[k], rows.skip_bodies[lo : lo + rows.skip_count[k]],
+        n_obs = row_obstacles(at, hx, hy, hz, rows.me[k], rows.skip_bodies[lo : lo + rows.skip_count[k]],
                            gains.cutoff, gains.step_over)  # fmt: skip
         speed = rows.speed[k]
         gx, gz = approach_field(hx, hz, ax, az, at.obstacles, n_obs, speed, push, gains.cutoff, gains.min_sq,
