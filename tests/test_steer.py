@@ -104,3 +104,14 @@ def test_walk_towards_goes_at_its_pace_round_the_post_and_never_arrives(two_walk
     assert np.array_equal(short, straight)
     here = a.position
     assert not approach.walk_towards(a, here, 1.1).any(), "at the point: no walk"
+
+
+def test_the_fused_multiply_add_rounds_once_compiled_and_in_plain_python():
+    """A wide body's rim is measured with one rounding (what numpy's norm gave play's steering);
+    a kernel run in plain Python before it is compiled must measure the same."""
+    from numba import njit
+
+    a, c = 1.0 + 2.0**-30, -(1.0 + 2.0**-29)  # a * a = 1 + 2**-29 + 2**-60: the last bit is lost if rounded
+    assert a * a + c == 0.0
+    assert steer.fused_multiply_add(a, a, c) == 2.0**-60
+    assert njit(lambda x, y, z: steer.fused_multiply_add(x, y, z))(a, a, c) == 2.0**-60
