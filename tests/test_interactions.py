@@ -46,6 +46,25 @@ def test_a_playing_child_kicks_the_ball_with_its_leg_and_every_speed_up_follows_
     assert scene.entity("kid").character.holding == {}  # (a kick is not a grab)
 
 
+def test_a_recorder_of_moments_only_records_the_same_moments(tmp_path, scenes):
+    """What a close-up looks for (``--at kick:2``): the moments, without a report's figures of
+    carried things and the yard, which make none."""
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + ",\n     behaviors: [{use: play, toy: ball, joy: 0.5, speed: 1.6}]}\n"
+        "  - {name: ball, body: ball, position: [1.0, 0, 2.0]}\n",
+    )
+    full, moments = InteractionRecorder(scene), InteractionRecorder(scene, moments_only=True)
+    scene.step(0)
+    for _ in range(int(round(15.0 / scene.dt))):
+        scene.step()
+        full.step()
+        moments.step()
+    assert [m.kind for m in full.moments].count("kick") >= 1
+    assert moments.moments == full.moments
+
+
 def test_a_kick_that_misses_leaves_the_ball_where_it_lies(tmp_path, scenes):
     scene = _scene(tmp_path, scenes, KID + "}\n  - {name: ball, body: ball, position: [0, 0, 2]}\n")
     scene.run(1.0)

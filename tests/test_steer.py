@@ -77,3 +77,41 @@ def test_an_obstacle_bends_the_walk_and_a_stalled_row_is_stuck(two_walkers):
 def test_approach_and_wander_steer_with_the_one_kernel():
     assert approach.steer_rows is steer.steer_rows and wander.steer_rows is steer.steer_rows
     assert not hasattr(approach, "steer_goals") and not hasattr(wander, "steer_crowd")
+
+
+def test_play_and_ride_steer_with_the_one_kernel():
+    """Steering is written once: play and ride walk with approach's one-row batch of the kernel,
+    and the Python copy of the field they used is gone."""
+    from twig_ecs import steering
+    from twig_ecs.systems.behaviours import play, ride
+
+    assert play.walk_towards is approach.walk_towards and ride.walk_towards is approach.walk_towards
+    assert not hasattr(steering, "approach_velocity")
+    assert not hasattr(play, "approach_velocity") and not hasattr(ride, "approach_velocity")
+
+
+def test_walk_towards_goes_at_its_pace_round_the_post_and_never_arrives(two_walkers):
+    """``walk_towards``: the field at the pace asked, bent by the post in the way unless the post
+    is excluded (or beyond the cut-off), and no arrival of its own: at the point the field is nil."""
+    scene = two_walkers
+    a = scene.entity("a")
+    behind_post = np.array([0.0, 0.0, 4.0])
+    bent = approach.walk_towards(a, behind_post, 1.1)
+    straight = approach.walk_towards(a, behind_post, 1.1, exclude=("post",))
+    short = approach.walk_towards(a, behind_post, 1.1, cutoff=0.5)  # the post 1.5 m off: beyond it
+    assert np.hypot(straight[0], straight[2]) == pytest.approx(1.1) and abs(straight[0]) < 0.05
+    assert abs(bent[0]) > abs(straight[0]) + 0.05, "the curl steers it sideways round the post"
+    assert np.array_equal(short, straight)
+    here = a.position
+    assert not approach.walk_towards(a, here, 1.1).any(), "at the point: no walk"
+
+
+def test_the_fused_multiply_add_rounds_once_compiled_and_in_plain_python():
+    """A wide body's rim is measured with one rounding (what numpy's norm gave play's steering);
+    a kernel run in plain Python before it is compiled must measure the same."""
+    from numba import njit
+
+    a, c = 1.0 + 2.0**-30, -(1.0 + 2.0**-29)  # a * a = 1 + 2**-29 + 2**-60: the last bit is lost if rounded
+    assert a * a + c == 0.0
+    assert steer.fused_multiply_add(a, a, c) == 2.0**-60
+    assert njit(lambda x, y, z: steer.fused_multiply_add(x, y, z))(a, a, c) == 2.0**-60

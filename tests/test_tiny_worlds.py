@@ -15,7 +15,8 @@ import pytest
 from twig_ecs import Scene, Settings
 from twig_ecs.behavior import Behavior
 from twig_ecs.clock import FixedStepClock
-from twig_ecs.steering import SteeringParams, approach_velocity
+from twig_ecs.kernelmath import approach_field
+from twig_ecs.steering import SteeringParams
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.control.select_behavior import MIN_DWELL, STICKINESS, URGENT, SelectBehaviorSystem
 from twig_ecs.systems.physics.collide import CollideSystem, near_pairs
@@ -211,6 +212,16 @@ NO_OBSTACLES = np.zeros((0, 3))
 
 def ground(x: float, z: float) -> np.ndarray:
     return np.array([x, 0.0, z])
+
+
+def approach_velocity(here: np.ndarray, goal: np.ndarray, obstacles: np.ndarray,
+                      params: SteeringParams) -> np.ndarray:  # fmt: skip
+    """The field's walk vector (x, 0, z) from ``here`` to ``goal`` round ``obstacles``: the
+    compiled field the steering kernel calls for each walker, on its own."""
+    p = params
+    wx, wz = approach_field(here[0], here[2], goal[0], goal[2], obstacles, len(obstacles), p.speed,
+                            p.repulsion, p.cutoff, p.min_sq, p.curl, p.fade)  # fmt: skip
+    return np.array([wx, 0.0, wz])
 
 
 def test_the_approach_field_heads_for_the_goal_at_walking_pace_and_slows_over_the_last_metre():

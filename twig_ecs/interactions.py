@@ -129,9 +129,14 @@ class _Carried:
 class InteractionRecorder:
     """Measures kicks, pushes, hugs and carried things of a scene, step by step."""
 
-    def __init__(self, scene) -> None:
+    def __init__(self, scene, moments_only: bool = False) -> None:
+        """``moments_only``: record the moments and the figures they come from (kicks,
+        pushes, hugs, fights, grabs), not those of carried things and the yard, which make
+        no moment (a close-up looking for a moment measures a quarter less each step)."""
         self.scene = scene
+        self.moments_only = moments_only
         self._links_cache: dict[tuple[int, int], list[int]] = {}
+        self._rigid_cache: dict[int, tuple[tuple[int, int], np.ndarray]] = {}  # body -> (layout, link rows)
         st = scene.state
         self.balls: dict[str, int] = {}  # name -> node row
         self.rides: dict[str, tuple[int, list[int]]] = {}  # name -> (free node row, collidable link rows)
@@ -212,8 +217,10 @@ class InteractionRecorder:
             self._spin[name], self._hand_gap[name] = spin, gap_now
         self._measure_hugs(chars)
         self._measure_fights(chars)
-        self._measure_carried(chars)
         self._note_grabs()
+        if self.moments_only:
+            return
+        self._measure_carried(chars)
         if self.yard is not None:
             self._measure_yard()
 
@@ -403,10 +410,17 @@ class InteractionRecorder:
 
     def _link_error(self, body_index: int) -> float:
         """Largest relative length error of a body's rigid links (a rope only when stretched)."""
-        lk, pos = self.scene.state.links, self.scene.state.nodes.pos
+        state = self.scene.state
+        lk, pos = state.links, state.nodes.pos
         n = lk.count
-        rows = np.flatnonzero((lk.body[:n] == body_index) & ((lk.flags[:n] & (LINK_GRAB | LINK_OFF)) == 0)
-                              & (lk.rest[:n] > 0))  # fmt: skip
+        # the body's links change only with the store's layout; of those, the ones that are
+        # no grab joint, switched on, with a length (not a scan of every link each step)
+        layout = (n, state.version)
+        known = self._rigid_cache.get(body_index)
+        if known is None or known[0] != layout:
+            known = self._rigid_cache[body_index] = (layout, np.flatnonzero(lk.body[:n] == body_index))
+        own = known[1]
+        rows = own[((lk.flags[own] & (LINK_GRAB | LINK_OFF)) == 0) & (lk.rest[own] > 0)]
         length = np.linalg.norm(pos[lk.a[rows]] - pos[lk.b[rows]], axis=1)
         error = (length - lk.rest[rows]) / lk.rest[rows]
         rope = (lk.flags[rows] & LINK_ROPE) != 0

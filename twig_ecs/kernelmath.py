@@ -112,8 +112,8 @@ def approach_field(px, pz, gx, gz, obstacles, n_obstacles, speed, repulsion, cut
     metre. ``r = sum c ((p - o) + (p - o) x e_y) / max(d_min, |p - o|^2)`` over the first
     ``n_obstacles`` rows of ``obstacles`` nearer than ``cutoff``, fading out within
     ``fade`` m of the goal; ``w`` is capped at ``speed``. The one implementation of the
-    field: :func:`twig_ecs.steering.approach_velocity` calls it for one character, the
-    wander behaviour for a crowd.
+    field: the steering kernel (:func:`twig_ecs.systems.control.steer.steer_rows`) calls it
+    for every walker, one character's or a crowd's.
     """
     ax = gx - px
     az = gz - pz

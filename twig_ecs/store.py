@@ -294,6 +294,64 @@ def _plan(view: type, blocks: tuple[Block, ...]) -> tuple[list[tuple[int, Callab
     return segments, counted
 
 
+def _self_masks(a: np.ndarray, b: np.ndarray, body: np.ndarray, loner: np.ndarray, group: np.ndarray,
+                self_collide: np.ndarray, lk: Block, node_body: np.ndarray) -> tuple:  # fmt: skip
+    """Each collider's index among its body's colliders (``local``, at most 63) and its
+    self-collision ``mask`` (bit k: never meets local collider k of its own body).
+
+    Colliders ``i`` and ``j`` of one body never meet when they are one, when ``j`` is a
+    loner, when both are in self-collision groups and the groups differ, or when an end of
+    ``j`` is an end of ``i`` or a neighbour of one (through any link but a grab joint). A
+    loner, and every collider of a body that does not collide with itself or has more
+    than 64 colliders, has every bit set.
+
+    By node, not by pair: each node's bits (the colliders ending there), each node's bits
+    with its neighbours' (``near``), and a collider's mask is ``near`` at its two ends - so
+    a world of 1000 humanoids (169 000 pairs, 78 ms in a Python loop) takes 4 ms.
+    """
+    total = len(body)
+    all_bits = np.uint64(0xFFFFFFFFFFFFFFFF)
+    body = body.astype(np.int64)
+    a, b = a.astype(np.int64), b.astype(np.int64)
+    assert (node_body[a] == body).all() and (node_body[b] == body).all(), "a collider ends in another body"
+    # local: the collider's place among its body's colliders, in row order
+    order = np.argsort(body, kind="stable")
+    first = np.flatnonzero(np.r_[True, body[order][1:] != body[order][:-1]]) if total else np.zeros(0, int)
+    size = np.diff(np.r_[first, total])
+    local, members = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
+    local[order] = np.arange(total) - np.repeat(first, size)
+    members[order] = np.repeat(size, size)  # how many colliders its body has
+    local = np.minimum(local, 63)
+    bit = np.left_shift(np.uint64(1), local.astype(np.uint64))
+    ends = np.zeros(len(node_body), dtype=np.uint64)  # per node: the colliders that end there
+    np.bitwise_or.at(ends, a, bit)
+    np.bitwise_or.at(ends, b, bit)
+    near = ends.copy()  # and those that end at a neighbour (links within one body, no grab joints)
+    keep = (lk.flags[: lk.count] & LINK_GRAB) == 0
+    la, lb = lk.a[: lk.count][keep].astype(np.int64), lk.b[: lk.count][keep].astype(np.int64)
+    same = node_body[la] == node_body[lb]
+    la, lb = la[same], lb[same]
+    np.bitwise_or.at(near, la, ends[lb])
+    np.bitwise_or.at(near, lb, ends[la])
+    mask = near[a] | near[b]  # (itself included: its ends are its own)
+    n_bodies = int(body.max()) + 1 if total else 0
+    loners = np.zeros(n_bodies, dtype=np.uint64)
+    np.bitwise_or.at(loners, body[loner], bit[loner])
+    mask |= loners[body]
+    grouped = group != 0  # a collider in a group never meets one in another group of its body
+    if grouped.any():
+        in_any = np.zeros(n_bodies, dtype=np.uint64)
+        np.bitwise_or.at(in_any, body[grouped], bit[grouped])
+        g = group[grouped].astype(np.int64) - int(group.min())  # (body, group) as one key
+        key, slot = np.unique(body[grouped] * (int(g.max()) + 1) + g, return_inverse=True)
+        in_own = np.zeros(len(key), dtype=np.uint64)
+        np.bitwise_or.at(in_own, slot, bit[grouped])
+        mask[grouped] |= in_any[body[grouped]] & ~in_own[slot]
+    closed = (self_collide[body] == 0) | (members > 64)
+    mask[closed | loner] = all_bits
+    return local, mask
+
+
 def _ignore(ignore: np.ndarray, collider: int, body: int) -> None:
     """Add ``body`` to a collider's (two) ignored bodies; a third replaces the second. A
     value ``-2 - k`` ignores collider ``k`` alone (a carried thing's capsule at the hand)."""
@@ -546,38 +604,14 @@ class PhysicsState:
         col.link[rows] = np.concatenate([link_rows, np.full(len(node_rows), -1)]).astype(np.int32)
         col.body[rows] = np.concatenate([lk.body[link_rows], n.body[node_rows]]).astype(np.int32)
 
-        # Neighbour sets from every non-grab link, for the self-collision masks.
         loner = np.zeros(total, dtype=bool)  # never collides with its own body
         loner[: len(link_rows)] = (lk.flags[link_rows] & LINK_NO_SELF) != 0
         group = np.zeros(total, dtype=np.int32)  # within a body, groups only meet their own
         group[: len(link_rows)] = lk.group[link_rows]
-        # Neighbour sets from every non-grab link, for the self-collision masks.
-        neighbours: dict[int, set[int]] = {}
-        for a, b, f in zip(lk.a[: lk.count], lk.b[: lk.count], lk.flags[: lk.count], strict=True):
-            if f & LINK_GRAB:
-                continue
-            neighbours.setdefault(int(a), {int(a)}).add(int(b))
-            neighbours.setdefault(int(b), {int(b)}).add(int(a))
-        by_body: dict[int, list[int]] = {}
-        for i in range(total):
-            by_body.setdefault(int(col.body[i]), []).append(i)
-        all_bits = np.uint64(0xFFFFFFFFFFFFFFFF)
-        for body, members in by_body.items():
-            allow_self = bool(self.bodies.self_collide[body]) and len(members) <= 64
-            for k, i in enumerate(members):
-                col.local[i] = min(k, 63)
-                if not allow_self or loner[i]:
-                    col.mask[i] = all_bits
-                    continue
-                near_i = neighbours.get(int(col.a[i]), {int(col.a[i])}) | neighbours.get(
-                    int(col.b[i]), {int(col.b[i])}
-                )
-                mask = 0
-                for kk, j in enumerate(members):
-                    apart = group[i] and group[j] and group[i] != group[j]
-                    if kk == k or loner[j] or apart or int(col.a[j]) in near_i or int(col.b[j]) in near_i:
-                        mask |= 1 << kk
-                col.mask[i] = np.uint64(mask)
+        node_body = n.body[: n.count]
+        col.local[rows], col.mask[rows] = _self_masks(
+            col.a[rows], col.b[rows], col.body[rows], loner, group, self.bodies.self_collide, lk, node_body
+        )
         # a held thing and the arm that holds it do not push each other apart; the rest
         # of the carrier's body does (a carried doll swings against the legs, not through
         # them: it is held high enough that no foot steps on it)

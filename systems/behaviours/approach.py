@@ -4,7 +4,8 @@ A goal-driven behaviour (``character.approach(target, stop_distance=..., directi
 arms=...)``). Each step it steers with the attraction + curl-repulsion field of
 :mod:`twig_ecs.steering` and looks at the target; it is done within the stop distance
 and fails when it makes no headway for ``STALL_TIME`` seconds. Hug, grapple, carry,
-drag, follow and sit use :func:`steer_to` for their own approach phases. Both are rows
+drag, follow and sit use :func:`steer_to` for their own approach phases, play and ride
+:func:`walk_towards` (a walk vector, no arrival or stall clock). All are rows
 of the one steering kernel (:mod:`twig_ecs.systems.control.steer`); the goals' rows are
 kept in a :class:`~twig_ecs.rowtable.RowTable`.
 """
@@ -19,7 +20,7 @@ from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH
 from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import ground_distance
-from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, SpatialIndex, nearest_obstacle_nodes
+from twig_ecs.systems.control.spatial import STEP_OVER
 from twig_ecs.systems.control.steer import (  # noqa: F401 (the statuses: what approach's callers read)
     ALONG_UNIT,
     ARRIVED,
@@ -27,8 +28,11 @@ from twig_ecs.systems.control.steer import (  # noqa: F401 (the statuses: what a
     SAT,
     STUCK,
     WALKING,
+    Gains,
+    Walkers,
     around,
     gains,
+    row_obstacles,
     steer_rows,
     walkers,
 )
@@ -57,68 +61,19 @@ def target_point(character, target) -> np.ndarray:
     return np.asarray(target, dtype=np.float64)
 
 
-def _nearest_on_links(state, rows: np.ndarray, here: np.ndarray) -> tuple[np.ndarray, float]:
-    """The point of the links ``rows`` nearest to ``here`` on the ground plane, and its distance."""
-    pos = state.nodes.pos
-    a = pos[state.links.a[rows]] * np.array([1.0, 0.0, 1.0])
-    ab = pos[state.links.b[rows]] * np.array([1.0, 0.0, 1.0]) - a
-    flat = here * np.array([1.0, 0.0, 1.0])
-    t = np.clip(np.einsum("ij,ij->i", flat - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
-    points = a + t[:, None] * ab
-    d = np.linalg.norm(points - flat, axis=1)
-    k = int(np.argmin(d))
-    return points[k] + np.array([0.0, here[1], 0.0]), float(d[k])
-
-
-def obstacles_near(character, exclude: set[str], cutoff: float, here: np.ndarray | None = None) -> np.ndarray:
-    """The nearest node of every other body within ``cutoff`` (ground plane), as points;
-    for a wide body, the nearest point of the disc it covers. ``here``: the character's
-    position when the caller has it already."""
+def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
+    """The obstacle points the steering kernel sees round ``character`` within ``cutoff`` m
+    (ground plane), in the order it sums them: the nearest point of each wall, the nearest
+    rim point of each wide body, the nearest node of every other body higher than a step.
+    ``exclude``: entities that are no obstacle (a target); what it holds, and what those
+    hold, are none either. (A query for tests and tools: the kernel gathers its own.)"""
     scene = character.scene
-    state = scene.state
-    if here is None:
-        here = character.position
-    # what it carries is no obstacle, and neither is what the target carries
-    exclude = set(exclude) | set(character.holding.values())
-    for name in list(exclude):
-        other = scene.entity(name) if scene.has_entity(name) else None
-        if other is not None and hasattr(other, "holding"):
-            exclude |= set(other.holding.values())
-    skip = {character.body.index} | {scene.entity(n).body.index for n in exclude if scene.has_entity(n)}
-    points = []
-    # a wide body (a merry-go-round's deck) is a disc to go round, however low it lies:
-    # its nearest node can be a metre from the bar one would walk into, and stepping
-    # across a turning deck catches the legs in its bars
-    index = SpatialIndex.of(scene)
-    cx, cz, spread, wide, walls, blocked = index.footprints(scene)
-    # a fence or wall is long and thin: its nearest point, not a disc round its middle
-    for b, rows in walls.items():
-        if b in skip or np.hypot(here[0] - cx[b], here[2] - cz[b]) - np.sqrt(spread[b]) > cutoff:
-            continue
-        point, d = _nearest_on_links(state, rows, here)
-        if d < cutoff:
-            points.append(point)
-    for b in np.flatnonzero(wide):
-        if b in skip:
-            continue
-        off = np.array([here[0] - cx[b], 0.0, here[2] - cz[b]])
-        reach = float(np.linalg.norm(off))
-        radius = float(np.sqrt(spread[b]))
-        if reach - radius < cutoff:
-            # the rim point nearest to it; from inside, the centre (it pushes outwards)
-            rim = off * (radius / reach) if reach > radius else np.zeros(3)
-            points.append(np.array([cx[b], here[1], cz[b]]) + rim)
-    # the nearest node of each other body that stands higher than a step: things lying
-    # low on the ground (a dropped doll, a ball) are stepped over or kicked
-    start, entries, best, scratch, out = index.grid(scene)
-    skip_rows = np.array(sorted(skip), dtype=np.int64)
-    count = nearest_obstacle_nodes(state.nodes.pos, state.nodes.body, state.nodes.count, start, entries,
-                                   STEER_CELL, float(here[0]), float(here[2]), float(cutoff), STEP_OVER,
-                                   blocked, skip_rows, best, scratch, out)  # fmt: skip
-    nodes = state.nodes.pos[out[:count]]
-    if points:
-        return np.concatenate([np.array(points), nodes]) if count else np.array(points)
-    return nodes if count else np.zeros((0, 3))
+    skip = np.array([scene.entity(name).body.index for name in sorted(exclude) if scene.has_entity(name)],
+                    dtype=np.int64)  # fmt: skip
+    at = around(scene, grab_pairs(scene.world), extra_skip=len(skip))
+    here = character.position
+    count = row_obstacles(at, here[0], here[1], here[2], character.body.index, skip, cutoff, STEP_OVER)
+    return at.obstacles[:count].copy()
 
 
 #: Gathering: a stalled walker ends "done" when another character stands still this near it
@@ -178,28 +133,17 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
     norm = float(np.linalg.norm(direction))
     direction = direction / norm if norm > 1e-9 else np.zeros(3)
     ignore = set(exclude) | ({target} if isinstance(target, str) else set())
-    ch = scene.state.characters
-    row = walkers(1)
-    row.pelvis[0] = ch.nodes[character.character_row, PELVIS]
-    row.me[0] = character.body.index
-    row.point[0] = where
+    row = _one_row(character, where, speed, ignore)
     row.stop[0] = stop_distance
     row.arrive[0] = stop_distance + ARRIVE_SLACK
     row.direction[0] = (direction[0], direction[1], direction[2], ALONG_UNIT)
     row.curl[0] = curl
-    if speed is not None:
-        row.speed[0] = speed
     row.stall[0] = STALL_TIME
     row.squeeze[0] = squeeze
-    skip = [scene.entity(name).body.index for name in sorted(ignore) if scene.has_entity(name)]
-    row = row._replace(skip_bodies=np.array(skip, dtype=np.int64), skip_count=np.array([len(skip)]))
     before = (memory.get("best", np.inf), memory.get("best_at", scene.time),
               memory.get("squeeze_until", -np.inf))  # fmt: skip
     row.best[0], row.best_at[0], row.squeeze_until[0] = before
-    walk = np.zeros((1, 3))
-    me = character.character_row
-    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=len(skip)), row, _GAINS, walk,
-               ch.mode[me : me + 1], scene.time, scene.dt)  # fmt: skip
+    walk = _steer_one(character, row, _GAINS)
     status, distance = row.status[0], float(row.distance[0])
     if status == ARRIVED:
         character.stop()
@@ -231,6 +175,45 @@ def steer_to(character, goal: Goal, target, stop_distance: float, direction=None
     return False
 
 
+def walk_towards(character, point: np.ndarray, speed: float, exclude: tuple[str, ...] = (),
+                 cutoff: float | None = None) -> np.ndarray:  # fmt: skip
+    """The walk vector (x, 0, z) that takes ``character`` towards ``point`` round what is in the
+    way, at ``speed`` m/s: the steering kernel's one-row batch without its arrival or stall
+    clock, for a behaviour that judges by its own rules when it is there (play, ride).
+
+    ``exclude``: entities that are no obstacle; ``cutoff`` (m): obstacles further off are
+    none (default: the field's, :class:`~twig_ecs.steering.SteeringParams`).
+    """
+    row = _one_row(character, point, speed, exclude)
+    row.arrive[0] = -np.inf  # never there: the caller decides
+    field = _FIELD_GAINS if cutoff is None else _FIELD_GAINS._replace(cutoff=cutoff)
+    return _steer_one(character, row, field)[0]
+
+
+def _one_row(character, point, speed: float | None, exclude) -> Walkers:
+    """A one-row batch of :func:`steer_rows` for ``character`` walking to ``point`` (from
+    where it is, at ``speed``: None, the field's pace), the entities ``exclude`` names no obstacle."""
+    scene = character.scene
+    row = walkers(1)
+    row.pelvis[0] = scene.state.characters.nodes[character.character_row, PELVIS]
+    row.me[0] = character.body.index
+    row.point[0] = point
+    if speed is not None:
+        row.speed[0] = speed
+    skip = [scene.entity(name).body.index for name in sorted(exclude) if scene.has_entity(name)]
+    return row._replace(skip_bodies=np.array(skip, dtype=np.int64), skip_count=np.array([len(skip)]))
+
+
+def _steer_one(character, row: Walkers, field: Gains) -> np.ndarray:
+    """Run the steering kernel on the one-row batch ``row``; its walk vector, as a (1, 3) array."""
+    scene = character.scene
+    walk = np.zeros((1, 3))
+    me = character.character_row
+    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=len(row.skip_bodies)), row, field, walk,
+               scene.state.characters.mode[me : me + 1], scene.time, scene.dt)  # fmt: skip
+    return walk
+
+
 def grab_pairs(world) -> tuple[np.ndarray, np.ndarray]:
     """(holder, held) body rows of every grab joint a character holds by: what it holds is
     no obstacle to its steering (nor what its target holds)."""
@@ -245,6 +228,8 @@ def grab_pairs(world) -> tuple[np.ndarray, np.ndarray]:
 
 #: The field's gains and the squeeze's figures (:func:`steer_rows`).
 _GAINS = gains(SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD)
+#: The field's gains alone (no squeeze): :func:`walk_towards`.
+_FIELD_GAINS = gains()
 
 
 #: An approach goal's row in the behaviour's table (:meth:`Approach._setup` makes it): where it

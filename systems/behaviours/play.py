@@ -20,9 +20,9 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Attachment
-from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+from twig_ecs.steering import ground_distance
 from twig_ecs.store import NODE_LOCKED
-from twig_ecs.systems.behaviours.approach import obstacles_near
+from twig_ecs.systems.behaviours.approach import walk_towards
 from twig_ecs.systems.behaviours.kick import FEET, foot_busy, launch_kick
 
 HIPS = {"l_foot": "l_hip", "r_foot": "r_hip"}  # the hip above each foot
@@ -296,10 +296,9 @@ class Play(Behavior):
         spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
         behind = float((here - ball) @ aim) < -0.1 * scale
-        exclude = {playful.toy} if behind else set()
+        exclude = (playful.toy,) if behind else ()
         far = ground_distance(here, spot)
-        params = SteeringParams(speed=playful.speed if far > 1.0 else min(playful.speed, SLOW))
-        obstacles = obstacles_near(character, exclude, params.cutoff)
+        run_pace = playful.speed if far > 1.0 else min(playful.speed, SLOW)
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
             if not behind:  # on the toy's wrong side: round it first
                 goal = _round_the_toy(here, ball, aim, left, scale)
@@ -322,7 +321,7 @@ class Play(Behavior):
                     pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
                     character.walk(_flat_unit(goal - here) * pace)
                     return
-            walk = approach_velocity(here, self._round_the_decks(here, goal, scale), obstacles, params)
+            walk = walk_towards(character, self._round_the_decks(here, goal, scale), run_pace, exclude)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP and ground_distance(here, goal) > LINE_UP * scale:
                 walk *= CREEP / pace  # (at the goal itself it would circle it)

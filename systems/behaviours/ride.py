@@ -20,9 +20,9 @@ from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.character import GRAB_REACH
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
-from twig_ecs.steering import SteeringParams, approach_velocity, ground_distance
+from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
-from twig_ecs.systems.behaviours.approach import obstacles_near
+from twig_ecs.systems.behaviours.approach import walk_towards
 
 
 @dataclass(slots=True)
@@ -121,10 +121,8 @@ class Ride(Behavior):
             elif now - spin.since > GIVE_UP:
                 self._done(character)
             else:
-                obstacles = obstacles_near(character, set(), 1.2)
-                character.walk(
-                    approach_velocity(character.position, spot, obstacles, SteeringParams(speed=1.6))
-                )
+                # round what is within 1.2 m only (the deck it walks up to pushes less far)
+                character.walk(walk_towards(character, spot, 1.6, cutoff=1.2))
             return
         bar = ride.node(spin.bar)
         if character.torso_pitch > LET_GO:

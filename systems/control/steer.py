@@ -13,10 +13,12 @@ approach field (:func:`~twig_ecs.kernelmath.approach_field`).
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic, overload
 
 from twig_ecs.kernelmath import SIT, approach_field
 from twig_ecs.steering import SteeringParams
@@ -163,6 +165,30 @@ def around(scene, holds: tuple[np.ndarray, np.ndarray] | None = None, shapes: bo
                   links.b, holder, held, slot, scratch, found, obstacles, skip)  # fmt: skip
 
 
+def fused_multiply_add(a: float, b: float, c: float) -> float:
+    """``a * b + c`` rounded once (IEEE 754's fma), the same in a kernel (LLVM's fma) and in
+    plain Python (a kernel run before it is compiled: exact fractions)."""
+    if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(c)):
+        return a * b + c
+    try:
+        return float(Fraction(a) * Fraction(b) + Fraction(c))
+    except OverflowError:
+        return math.copysign(math.inf, a * b + c)
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@overload(fused_multiply_add)
+def _fused_multiply_add_compiled(a, b, c):
+    return lambda a, b, c: _fma(a, b, c)
+
+
 @njit(cache=True, nogil=True)
 def _skipped(skip, n_skip, b):
     for s in range(n_skip):
@@ -172,7 +198,7 @@ def _skipped(skip, n_skip, b):
 
 
 @njit(cache=True, nogil=True)
-def _obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
+def row_obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
     """Row k's obstacles into ``at.obstacles``; returns how many. The order is fixed: walls,
     wide bodies (the rim point nearest; from inside, the centre), then the nearest node of
     every other body higher than a step (bodies in the order of their first node)."""
@@ -221,7 +247,10 @@ def _obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
         if _skipped(skip, n_skip, b):
             continue
         ox, oz = hx - at.cx[b], hz - at.cz[b]
-        reach = math.sqrt(ox * ox + oz * oz)
+        # |p - c| on the ground with the last multiply-add fused: to the bit what numpy's norm of
+        # (x, 0, z) gave play's and ride's steering before they were rows here (OpenBLAS's dot
+        # fuses it), and the same on every machine (LLVM's fma is exact where there is none)
+        reach = math.sqrt(fused_multiply_add(oz, oz, ox * ox))
         radius = math.sqrt(at.spread[b])
         if reach - radius < cutoff:
             if reach > radius:
@@ -315,7 +344,7 @@ def steer_rows(at: Around, rows: Walkers, gains: Gains, walk, mode, now, dt):
         squeezing = rows.squeeze[k] != 0 and now < rows.squeeze_until[k]
         push = gains.repulsion * gains.squeeze if squeezing else gains.repulsion
         lo = rows.skip_start[k]
-        n_obs = _obstacles(at, hx, hy, hz, rows.me[k], rows.skip_bodies[lo : lo + rows.skip_count[k]],
+        n_obs = row_obstacles(at, hx, hy, hz, rows.me[k], rows.skip_bodies[lo : lo + rows.skip_count[k]],
                            gains.cutoff, gains.step_over)  # fmt: skip
         speed = rows.speed[k]
         gx, gz = approach_field(hx, hz, ax, az, at.obstacles, n_obs, speed, push, gains.cutoff, gains.min_sq,

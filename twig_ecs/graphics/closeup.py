@@ -81,7 +81,7 @@ def find_moment(scene, spec: MomentSpec, within: float,
     scene is left at that step. Raises :class:`CloseupError` when ``within`` simulated
     seconds pass without it, naming the moments that did happen."""
     scene.step(0)  # install systems (a held thing is taken hold of) before watching
-    recorder = InteractionRecorder(scene)
+    recorder = InteractionRecorder(scene, moments_only=True)  # moments, not a report's figures
     last = scene.frame + max(1, math.ceil(within / scene.dt - 1e-6))
     while scene.frame < last:
         scene.step(1)

@@ -97,9 +97,15 @@ def _wrap(lines: Sequence[str], f, width: int) -> list[str]:
     out = []
     for line in lines:
         while line and f.getbbox(line)[2] > width:
-            cut = len(line)
-            while cut > 1 and f.getbbox(line[:cut])[2] > width:
-                cut -= 1
+            # the longest start of the line that fits (one character at least), by bisection:
+            # a longer start is never narrower (the line grows to the right)
+            cut, over = 1, len(line)  # line[:over] is too wide
+            while over - cut > 1:
+                mid = (cut + over) // 2
+                if f.getbbox(line[:mid])[2] > width:
+                    over = mid
+                else:
+                    cut = mid
             space = line.rfind(" ", 0, cut)
             cut = space if space > cut // 2 else cut
             out.append(line[:cut].rstrip())
