@@ -334,9 +334,29 @@ def closest_segment_params(p1, q1, p2, q2):
     d2x = q2[0] - p2[0]
     d2y = q2[1] - p2[1]
     d2z = q2[2] - p2[2]
-    rx = p1[0] - p2[0]
-    ry = p1[1] - p2[1]
-    rz = p1[2] - p2[2]
+    return _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2])
+
+
+# The contact passes call this, not closest_segment_params: a row of pos handed to a call is a
+# new array view, and each (with its reference counting) cost more than the arithmetic - the
+# hugging crowd's collide step 14.4 -> 8.5 ms with the rows read here instead (same bits).
+@njit(cache=True, inline="always")
+def closest_rows(pos, a, b, c, d):
+    """:func:`closest_segment_params` of the segments from node rows ``a``-``b`` and ``c``-``d``."""
+    d1x = pos[b, 0] - pos[a, 0]
+    d1y = pos[b, 1] - pos[a, 1]
+    d1z = pos[b, 2] - pos[a, 2]
+    d2x = pos[d, 0] - pos[c, 0]
+    d2y = pos[d, 1] - pos[c, 1]
+    d2z = pos[d, 2] - pos[c, 2]
+    return _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, pos[a, 0] - pos[c, 0], pos[a, 1] - pos[c, 1],
+                           pos[a, 2] - pos[c, 2])  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, rx, ry, rz):
+    """(s, t) of :func:`closest_segment_params` from the segments' directions d1, d2 and the
+    offset r = p1 - p2 of their starts."""
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z
     f = d2x * rx + d2y * ry + d2z * rz
@@ -429,7 +449,7 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         d = col_b[j]
         if _segments_apart(pos, a, b, c, d, col_r[i] + col_r[j]):
             continue  # depth < 0 below, surely
-        s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
+        s, t = closest_rows(pos, a, b, c, d)
         px = pos[a, 0] + s * (pos[b, 0] - pos[a, 0])
         py = pos[a, 1] + s * (pos[b, 1] - pos[a, 1])
         pz = pos[a, 2] + s * (pos[b, 2] - pos[a, 2])
@@ -575,7 +595,7 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
 @njit(cache=True, inline="always")
 def segment_gap2(pos, a, b, c, d):
     """Squared distance between the closest points of segments ``a``-``b`` and ``c``-``d`` (node rows)."""
-    s, t = closest_segment_params(pos[a], pos[b], pos[c], pos[d])
+    s, t = closest_rows(pos, a, b, c, d)
     dist2 = 0.0
     for q in range(3):
         e = pos[a, q] + s * (pos[b, q] - pos[a, q]) - pos[c, q] - t * (pos[d, q] - pos[c, q])
