@@ -32,6 +32,7 @@ from twig_ecs.systems.physics.constrain import (
     named_constraints,
     nudge,
     relax_once,
+    row,
     settle_shape,
 )
 
@@ -441,12 +442,12 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
     body = cols.body
     worst = 0.0
     for k in range(n_pairs):
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        a = col_a[i]
-        b = col_b[i]
-        c = col_a[j]
-        d = col_b[j]
+        i = row(pairs[k, 0])  # (unsigned: see constrain.row)
+        j = row(pairs[k, 1])
+        a = row(col_a[i])
+        b = row(col_b[i])
+        c = row(col_a[j])
+        d = row(col_b[j])
         if _segments_apart(pos, a, b, c, d, col_r[i] + col_r[j]):
             continue  # depth < 0 below, surely
         s, t = closest_rows(pos, a, b, c, d)
@@ -614,7 +615,7 @@ def _capsules_near(pos, col_a, col_b, col_r, i, j, margin):
     """Are colliders ``i`` and ``j`` within ``margin`` of touching (a box test first: most
     candidate pairs are surely apart)?"""
     reach = col_r[i] + col_r[j] + margin
-    a, b, c, d = col_a[i], col_b[i], col_a[j], col_b[j]
+    a, b, c, d = row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j])
     return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
 
 
