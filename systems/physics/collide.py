@@ -40,9 +40,12 @@ from twig_ecs.systems.physics.constrain import (
 #: the step's relaxation are still found.
 BROAD_MARGIN = 0.05
 #: A contact pass looks only at candidate pairs this near touching (m), measured again as their
-#: nodes move (:func:`repick_moved`). Any margin gives the same contacts; 2 cm balances the
-#: passes' pairs against the measuring (5 cm: 1800 near pairs in the 1000-ragdoll pile, 240
-#: touching; 2 cm: 950 and 0.5 ms a step less; the 1000 hugging: 11 500 -> 8000, 2 ms less).
+#: nodes move (:func:`repick_moved`). 2 cm balances the passes' pairs against the measuring (5 cm:
+#: 1800 near pairs in the 1000-ragdoll pile, 240 touching; 2 cm: 950 and 0.5 ms a step less; the
+#: 1000 hugging: 11 500 -> 8000, 2 ms less). In exact arithmetic any margin gives the same contacts;
+#: measured, 2 cm steps the 1000 pile and the 1000 hugging to the same bits as passes over every
+#: candidate (NEAR_FROM above their pairs), but 1 cm does not (the pile's hash after 210 steps
+#: differs): check the state hashes before changing it.
 CONTACT_MARGIN = 0.02
 #: A node this far (m) from where it stood when its candidate pairs were last measured has
 #: them measured again: a quarter of the margin, so that none left out can touch (:func:`repick_moved`).
