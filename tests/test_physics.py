@@ -343,6 +343,37 @@ def test_link_and_limit_passes_split_across_threads_by_body_leave_the_same_state
     assert [s.state_hash() for s in others] == [threaded.state_hash()] * 2
 
 
+def test_the_one_thread_link_order_takes_bodies_side_by_side_keeping_each_bodys_rows_in_order():
+    # four bodies of 3 rows and one of 2 in one run, a grab joint (a run of its own), then two
+    # bodies of 3: bodies four at a time where they have as many rows, never across a run
+    from twig_ecs.systems.physics.constrain import interleaved
+
+    ends = np.cumsum([3, 3, 3, 3, 2, 1, 3, 3])
+    chunks = np.stack([np.append(0, ends[:-1]), ends], axis=1)
+    groups = np.array([0, 5, 6, 8])
+    order = interleaved(chunks, groups, 4).tolist()
+    assert order[:12] == [0, 3, 6, 9, 1, 4, 7, 10, 2, 5, 8, 11]  # first rows, second rows, ...
+    assert order[12:] == [12, 13, 14, 15, 18, 16, 19, 17, 20]  # the short body, the joint, two more
+    assert interleaved(chunks, groups, 1).tolist() == list(range(21))
+
+
+def test_links_projected_bodies_side_by_side_leave_the_state_to_the_last_bit(monkeypatch, scenes):
+    # the order of the rows of different bodies changes nothing: a falling pile steps to the
+    # same bits with the bodies' link rows side by side as one body after another
+    from twig_ecs.bench.cases import ragdoll_pile
+    from twig_ecs.systems.physics import constrain
+
+    hashes = []
+    for lanes in (1, constrain.LINK_LANES):
+        monkeypatch.setattr(constrain, "LINK_LANES", lanes)
+        scene = ragdoll_pile(9)
+        scenes.append(scene)
+        scene.step(90)
+        hashes.append(scene.state_hash())
+    assert hashes[0] == hashes[1]
+    assert constrain.LINK_LANES > 1
+
+
 def test_fixed_bodies_meeting_each_other_give_no_contact_work_and_a_ball_only_its_own(empty_scene):
     # fence panels meeting at their posts overlap by design: 39 candidate pairs a joint, each
     # tested in every pass of every step though neither side can move (issue 36: nine in ten of

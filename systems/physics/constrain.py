@@ -109,6 +109,9 @@ class BodyPlan(NamedTuple):
     limit_chunks: np.ndarray
     limit_groups: np.ndarray
     parallel: bool  # split across threads at all (enough bodies, more than one thread)
+    # (links,) int64: the link rows in the order a pass projects them; the chunks are ranges of
+    # it. On one thread (:func:`interleaved`) a run's bodies LINK_LANES at a time, row by row
+    link_order: np.ndarray
 
 
 class Constraints(NamedTuple):
@@ -165,7 +168,47 @@ def body_plan(state, parallel: bool = True) -> tuple:
         limit_cross |= node_body[rows] != limit_body
     limit_chunks, limit_groups = _chunks(limit_body, limit_cross)
     parallel = bool(parallel and state.bodies.count >= PARALLEL_BODIES)
-    return link_chunks, link_groups, limit_chunks, limit_groups, parallel
+    link_order = np.arange(links.count) if parallel else interleaved(link_chunks, link_groups, LINK_LANES)
+    return link_chunks, link_groups, limit_chunks, limit_groups, parallel, link_order
+
+
+#: Bodies whose link rows one pass on one thread takes side by side (:func:`interleaved`).
+LINK_LANES = 4
+
+
+def interleaved(chunks: np.ndarray, groups: np.ndarray, lanes: int) -> np.ndarray:
+    """The rows of ``chunks`` (a :class:`BodyPlan`'s), up to ``lanes`` chunks of a run with as many
+    rows at a time, row by row: first rows of each, then second rows, and so on.
+
+    Each link pulls on nodes the one before it has just moved (a body's links share its
+    nodes), so one body's rows wait on each other; the rows of different bodies do not, and
+    side by side the CPU overlaps them: the pile's link pass 262 -> 200 us, the hugging
+    crowd's 221 -> 184 (one thread). A run's bodies touch none of each other's nodes, so the
+    order among them changes nothing (as on threads); each body's rows keep their order.
+    """
+    count = int(chunks[-1, 1]) if len(chunks) else 0
+    length = chunks[:, 1] - chunks[:, 0]
+    # chunk p may share a block with the one before it: same run, as many rows
+    joins = np.zeros(len(chunks), dtype=bool)
+    joins[1:] = length[1:] == length[:-1]
+    joins[groups[:-1]] = False
+    joins, length = joins.tolist(), length.tolist()
+    offset = np.empty(len(chunks), dtype=np.int64)  # where a chunk's block starts in the order
+    width = np.empty(len(chunks), dtype=np.int64)  # chunks in its block
+    lane = np.empty(len(chunks), dtype=np.int64)  # its place among them
+    q, at = 0, 0
+    while q < len(chunks):
+        take = 1
+        while take < lanes and q + take < len(chunks) and joins[q + take]:
+            take += 1
+        offset[q : q + take], width[q : q + take], lane[q : q + take] = at, take, np.arange(take)
+        at += take * length[q]
+        q += take
+    chunk = np.repeat(np.arange(len(chunks)), length)  # each row's chunk
+    along = np.arange(count) - chunks[chunk, 0]
+    order = np.empty(count, dtype=np.int64)
+    order[offset[chunk] + along * width[chunk] + lane[chunk]] = np.arange(count)
+    return order
 
 
 def _chunks(body: np.ndarray, cross: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -191,6 +234,14 @@ def _chunks(body: np.ndarray, cross: np.ndarray) -> tuple[np.ndarray, np.ndarray
     if groups[-1] != len(chunks):
         groups.append(len(chunks))
     return chunks, np.array(groups, dtype=np.int64)
+
+
+@njit(cache=True, inline="always")
+def row(i):
+    """A node row read from an index column, as an unsigned integer: numba then indexes with
+    it directly, without the test for a negative index (from the end) it makes for a signed one
+    - about a quarter of a link's instructions; the link pass 7% faster, the limits 4-9%."""
+    return np.uint64(i)
 
 
 @njit(cache=True, inline="always")
@@ -233,17 +284,18 @@ def nudge(pos, i, f, dx, dy, dz):
 
 
 @njit(cache=True, inline="always")  # (in both the serial and the threaded pass: compiled once each)
-def project_link_rows(nodes, links, start, end):
-    """One pass over link rows ``start``..``end``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
+def project_link_rows(nodes, links, order, start, end):
+    """One pass over the link rows ``order[start:end]``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
     pj += wj (...) o. Ropes are only pulled back when longer than their length.
     """
     pos, inv_mass, flags = nodes.pos, nodes.inv_mass, nodes.flags
     la, lb, rest, lflags = links.a, links.b, links.rest, links.flags
-    for k in range(start, end):
+    for q in range(start, end):
+        k = row(order[q])
         if lflags[k] & LINK_OFF:
             continue  # (first: a switched-off brace costs no square root)
-        i = la[k]
-        j = lb[k]
+        i = row(la[k])
+        j = row(lb[k])
         wi = node_weight(inv_mass, flags, i)
         wj = node_weight(inv_mass, flags, j)
         w = wi + wj
@@ -265,9 +317,9 @@ def project_link_rows(nodes, links, start, end):
 
 
 @njit(cache=True, nogil=True)
-def project_links(nodes, links):
-    """One pass over all links (:func:`project_link_rows`)."""
-    project_link_rows(nodes, links, 0, links.count)
+def project_links(nodes, links, order):
+    """One pass over all links, in ``order`` (:func:`project_link_rows`)."""
+    project_link_rows(nodes, links, order, 0, links.count)
 
 
 #: Passes over a held loose thing's own links at the end of each step (:func:`settle_shape`).
@@ -391,18 +443,19 @@ def project_limit_rows(nodes, limits, gripped, start, end):
     root, mid, tip, frame = limits.root, limits.mid, limits.tip, limits.frame
     side, ref, arc_min, arc_max, edges = limits.side, limits.ref, limits.arc_min, limits.arc_max, limits.edges
     for k in range(start, end):
-        r = root[k]
-        m = mid[k]
-        t = tip[k]
+        r = row(root[k])
+        m = row(mid[k])
+        t = row(tip[k])
         if gripped[m]:
             continue
         # body frame: L points to the body's left, U up, F = L x U forward
-        lx = pos[frame[k, 0], 0] - pos[frame[k, 1], 0]
-        ly = pos[frame[k, 0], 1] - pos[frame[k, 1], 1]
-        lz = pos[frame[k, 0], 2] - pos[frame[k, 1], 2]
-        ux = pos[frame[k, 3], 0] - pos[frame[k, 2], 0]
-        uy = pos[frame[k, 3], 1] - pos[frame[k, 2], 1]
-        uz = pos[frame[k, 3], 2] - pos[frame[k, 2], 2]
+        left, right, low, up = row(frame[k, 0]), row(frame[k, 1]), row(frame[k, 2]), row(frame[k, 3])
+        lx = pos[left, 0] - pos[right, 0]
+        ly = pos[left, 1] - pos[right, 1]
+        lz = pos[left, 2] - pos[right, 2]
+        ux = pos[up, 0] - pos[low, 0]
+        uy = pos[up, 1] - pos[low, 1]
+        uz = pos[up, 2] - pos[low, 2]
         fx = ly * uz - lz * uy
         fy = lz * ux - lx * uz
         fz = lx * uy - ly * ux
@@ -545,25 +598,25 @@ def project_limits(nodes, limits, gripped):
 # A call, not inlined: numba analyses a threaded loop's body statement by statement, and with
 # the rows inlined project_by_body took 11.9 s of a first run's 41 s of compiling (now 3.3 s).
 @njit(cache=True, nogil=True)
-def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links):
+def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_order):
     """Chunk ``q`` of a :class:`BodyPlan`: its link (``of_links``) or limit rows."""
     if of_links:
-        project_link_rows(nodes, links, chunks[q, 0], chunks[q, 1])
+        project_link_rows(nodes, links, link_order, chunks[q, 0], chunks[q, 1])
     else:
         project_limit_rows(nodes, limits, gripped, chunks[q, 0], chunks[q, 1])
 
 
 @njit(cache=True, parallel=True, nogil=True)
-def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links):
+def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links, link_order):
     """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
     chunks at once, across threads, the runs one after the other."""
     for g in range(len(groups) - 1):
         lo, hi = groups[g], groups[g + 1]
         if hi - lo == 1:  # (a grab joint, or a lone body: no threads to start)
-            _project_chunk(nodes, links, limits, gripped, chunks, lo, of_links)
+            _project_chunk(nodes, links, limits, gripped, chunks, lo, of_links, link_order)
             continue
         for q in prange(lo, hi):
-            _project_chunk(nodes, links, limits, gripped, chunks, q, of_links)
+            _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_order)
 
 
 @njit(cache=True, nogil=True)
@@ -573,9 +626,9 @@ def links_pass(c):
     plan = c.plan
     if plan.parallel:
         chunks, groups = plan.link_chunks, plan.link_groups
-        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(True))  # noqa: UP018
+        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(True), plan.link_order)  # noqa: UP018
     else:
-        project_links(c.nodes, c.links)
+        project_links(c.nodes, c.links, plan.link_order)
 
 
 @njit(cache=True, nogil=True)
@@ -584,7 +637,7 @@ def limits_pass(c):
     plan = c.plan
     if plan.parallel:
         chunks, groups = plan.limit_chunks, plan.limit_groups
-        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(False))  # noqa: UP018
+        project_by_body(c.nodes, c.links, c.limits, c.gripped, chunks, groups, bool(False), plan.link_order)  # noqa: UP018
     else:
         project_limits(c.nodes, c.limits, c.gripped)
 
