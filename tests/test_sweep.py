@@ -76,8 +76,11 @@ def killing(workers: int, times: int, killed: list[int]) -> threading.Thread:
             time.sleep(0.5)
             alive = [pid for pid in sweep_workers() if pid not in killed]
             if len(alive) == workers:
-                time.sleep(2.0)  # its kernels loaded, a run under way
-                os.kill(alive[0], signal.SIGKILL)
+                time.sleep(0.5)  # its kernels loaded, a run under way
+                try:
+                    os.kill(alive[0], signal.SIGKILL)
+                except ProcessLookupError:
+                    continue  # it had finished its runs and gone: try another
                 killed.append(alive[0])
 
     thread = threading.Thread(target=kill)
@@ -89,12 +92,14 @@ def killing(workers: int, times: int, killed: list[int]) -> threading.Thread:
 def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again():
     killed: list[int] = []
     killer = killing(2, 1, killed)
-    done = run_local("schoolyard", 6.0, plan_runs([0, 1, 2, 3], {}), workers=2)
+    # 15 simulated s a run (about a second of CPU): long enough that the killer meets a run under
+    # way (at 6 s the four runs were over before its 2 s wait was, and it found no worker to kill)
+    done = run_local("schoolyard", 15.0, plan_runs([0, 1, 2, 3], {}), workers=2)
     killer.join()
     assert len(killed) == 1
     assert [r["run"] for r in done] == [0, 1, 2, 3] and all(r["error"] == "" for r in done), done
     with Scene.load("schoolyard", seed=2) as scene:  # a run done again is the same run
-        scene.run(6.0)
+        scene.run(15.0)
         assert done[2]["state_hash"] == scene.state_hash()
 
 
