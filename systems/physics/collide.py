@@ -619,8 +619,7 @@ def _capsules_near(pos, col_a, col_b, col_r, i, j, margin):
     """Are colliders ``i`` and ``j`` within ``margin`` of touching (a box test first: most
     candidate pairs are surely apart)?"""
     reach = col_r[i] + col_r[j] + margin
-    a, b, c, d = row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j])
-    return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
+    return _within(pos, row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j]), reach)
 
 
 @njit(cache=True, nogil=True)
