@@ -298,7 +298,7 @@ class Play(Behavior):
         behind = float((here - ball) @ aim) < -0.1 * scale
         exclude = (playful.toy,) if behind else ()
         far = ground_distance(here, spot)
-        run_pace = playful.speed if far > 1.0 else min(playful.speed, SLOW)
+        steer_pace = playful.speed if far > 1.0 else min(playful.speed, SLOW)
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
             if not behind:  # on the toy's wrong side: round it first
                 goal = _round_the_toy(here, ball, aim, left, scale)
@@ -321,7 +321,7 @@ class Play(Behavior):
                     pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
                     character.walk(_flat_unit(goal - here) * pace)
                     return
-            walk = walk_towards(character, self._round_the_decks(here, goal, scale), run_pace, exclude)
+            walk = walk_towards(character, self._round_the_decks(here, goal, scale), steer_pace, exclude)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP and ground_distance(here, goal) > LINE_UP * scale:
                 walk *= CREEP / pace  # (at the goal itself it would circle it)
