@@ -90,6 +90,7 @@ class Defend(Behavior):
     """
 
     name = "defend"
+    batch = True
 
     def setup(self) -> None:
         """Who is attacked by whom this step (looked up once per step)."""
@@ -101,8 +102,25 @@ class Defend(Behavior):
         return [(e, self.world.component_for_entity(e, Mind)) for e in self.attacked_by
                 if self.world.entity_exists(e) and self.world.has_component(e, Mind)]  # fmt: skip
 
+    def propose_crowd(self, crowd) -> np.ndarray:
+        """:meth:`activation` of every one at once (systems/behaviours/brawl.py)."""
+        from twig_ecs.systems.behaviours.brawl import defend_activations  # (it reads this module's figures)
+
+        return defend_activations(self, self.attacked_by, crowd.entities)
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
+        """:meth:`act` for every defender at once, over arrays (systems/behaviours/brawl.py);
+        a character at a time where one would be refused."""
+        from twig_ecs.systems.behaviours.brawl import act_defences  # (it reads this module's figures)
+
+        if not act_defences(self, self.attacked_by, rows, entities):
+            for entity in entities:
+                mind = self.world.component_for_entity(entity, Mind)
+                self.act(self.scene.character_handle(entity), mind, None, dt)
+
     def activation(self, character, mind: Mind, goal) -> float:
-        """High while the fighter is near."""
+        """High while the fighter is near (one character: the per-character form of
+        :meth:`propose_crowd`)."""
         fighter = self.attacked_by.get(character.entity)
         if fighter is None:
             return 0.0

@@ -41,9 +41,25 @@ class Grapple(Behavior):
             seconds("duration", 3.0, "how long to fight within reach"),
         ),
     )
+    batch = True
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
+        """:meth:`act` for every grappler at once, over arrays (systems/behaviours/brawl.py);
+        a step with a rare event in it (a target gone, a walk-up stalled...) a character at a time."""
+        from twig_ecs.systems.behaviours.brawl import act_grapples  # (it reads this module's figures)
+
+        if goals is None:
+            goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
+        live = [k for k, goal in enumerate(goals) if goal is not None]
+        rows, entities, goals = [rows[k] for k in live], [entities[k] for k in live], [goals[k] for k in live]
+        if goals and not act_grapples(self, rows, entities, goals, dt):
+            for entity, goal in zip(entities, goals, strict=True):
+                mind = self.world.component_for_entity(entity, Mind)
+                self.act(self.scene.character_handle(entity), mind, goal, dt)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
-        """Close in, then shove and punch in turn, square to the target."""
+        """Close in, then shove and punch in turn, square to the target (one grappler: the
+        per-character form of :meth:`act_batch`)."""
         target = goal.params["target"]
         m = goal.memory
         scale = character.scale
