@@ -11,7 +11,7 @@ import numpy as np
 
 from twig_ecs import Scene
 from twig_ecs.mind import Mind
-from twig_ecs.systems.behaviours import brawl
+from twig_ecs.systems.behaviours import arrays, fight, grapple
 
 #: What grapple and defend write in the character table (``prev``, the blows, apart).
 WRITTEN = ("walk", "gaze_node", "gaze_mode", "arm_mode", "arm_node", "arm_point", "mode", "seat", "mode_time")
@@ -70,7 +70,7 @@ def _restorer(scene: Scene, entities: list[int]):
 
 def grapples_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     """What the batch and the per-character grapple write from this state (None: no one grapples)."""
-    grapple = scene.behaviors["grapple"]
+    behaviour = scene.behaviors["grapple"]
     holders = scene.goal_holders_of("grapple")
     if not holders:
         return None
@@ -79,13 +79,13 @@ def grapples_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     goals = [mind.goal for _, mind in holders]
     outcome = _restorer(scene, entities)
     untouched = outcome()
-    took = brawl.act_grapples(grapple, rows, entities, goals, scene.dt)
+    took = grapple.act_grapples(behaviour, rows, entities, goals, scene.dt)
     batch = outcome()
     if not took:  # a rare event (a walk-up stalled): the per-character form's step, nothing written
         _assert_same(batch, untouched, -1)
         return None
     for entity, (_, mind) in zip(entities, holders, strict=True):
-        grapple.act(scene.character_handle(entity), mind, mind.goal, scene.dt)
+        behaviour.act(scene.character_handle(entity), mind, mind.goal, scene.dt)
     return batch, outcome()
 
 
@@ -99,8 +99,8 @@ def defences_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     entities = [e for e, _ in picked]
     rows = [scene.character_handle(e).character.index for e in entities]
     outcome = _restorer(scene, entities)
-    proposed = brawl.defend_activations(defend, defend.attacked_by, entities)
-    assert brawl.act_defences(defend, defend.attacked_by, rows, entities), "the batch took the step"
+    proposed = fight.defend_activations(defend, defend.attacked_by, entities)
+    assert fight.act_defences(defend, defend.attacked_by, rows, entities), "the batch took the step"
     batch = outcome() | {"proposed": proposed.tolist()}
     single = [defend.activation(scene.character_handle(e), mind, None) for e, mind in picked]
     for entity, mind in picked:
@@ -148,8 +148,6 @@ def test_a_brawl_runs_over_arrays_to_the_same_ends_as_the_per_character_fights(m
     # the whole run, through select_behavior: the same trajectory and the same goal ends
     # (done, let go, stalled) as with the per-character forms alone
     from twig_ecs.behavior import Behavior
-    from twig_ecs.systems.behaviours.fight import Defend
-    from twig_ecs.systems.behaviours.grapple import Grapple
 
     def run() -> tuple[str, list]:
         scene, goals = brawling()
@@ -159,18 +157,20 @@ def test_a_brawl_runs_over_arrays_to_the_same_ends_as_the_per_character_fights(m
 
     batch = run()
     with monkeypatch.context() as per_character:
-        per_character.setattr(Grapple, "batch", False)  # select_behavior calls act a character at a time
-        per_character.setattr(Defend, "batch", False)
-        per_character.setattr(Defend, "propose_crowd", Behavior.propose_crowd)  # and activation
-        per_character.setattr(brawl, "act_grapples", None)
-        per_character.setattr(brawl, "act_defences", None)
+        per_character.setattr(
+            grapple.Grapple, "batch", False
+        )  # select_behavior calls act a character at a time
+        per_character.setattr(fight.Defend, "batch", False)
+        per_character.setattr(fight.Defend, "propose_crowd", Behavior.propose_crowd)
+        per_character.setattr(grapple, "act_grapples", None)
+        per_character.setattr(fight, "act_defences", None)
         single = run()
     assert batch == single
     assert ("done", "") in batch[1], "a fight ended (its time fought, or the target got away)"
 
 
 def test_the_walking_up_grapplers_are_steered_in_one_call_not_one_steer_to_each(monkeypatch):
-    from twig_ecs.systems.behaviours import approach, grapple
+    from twig_ecs.systems.behaviours import approach
     from twig_ecs.systems.control.steer import steer_rows
 
     def per_character(*args, **kwargs):
@@ -186,7 +186,7 @@ def test_the_walking_up_grapplers_are_steered_in_one_call_not_one_steer_to_each(
     with scene:
         monkeypatch.setattr(grapple, "steer_to", per_character)
         monkeypatch.setattr(approach, "steer_to", per_character)
-        monkeypatch.setattr(brawl, "steer_rows", counted)
+        monkeypatch.setattr(arrays, "steer_rows", counted)
         scene.run(0.5)
         assert [g.status for g in goals] == ["active"] * len(goals), [g.reason for g in goals]
         assert max(calls) >= 4, "the grapplers walking up were steered together"
