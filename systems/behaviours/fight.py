@@ -101,10 +101,20 @@ class Defend(Behavior):
         self.attacked_by: dict[int, int] = {}
 
     def candidates(self) -> list[tuple[int, Mind]]:
-        """Only the characters someone is fighting."""
-        self.attacked_by = attackers_of(self.scene)
-        return [(e, self.world.component_for_entity(e, Mind)) for e in self.attacked_by
-                if self.world.entity_exists(e) and self.world.has_component(e, Mind)]  # fmt: skip
+        """Only the characters someone is fighting (who fights whom looked up again when the
+        grapple goals or the store's rows change, not every step)."""
+        scene = self.scene
+        state = scene.state
+        fights = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("grapple"))
+        key = (fights, state.version, id(state))
+        self.attacked_by, attacked = self.scratch.keyed("attacked", key, self._attacked)
+        return [(e, self.world.component_for_entity(e, Mind)) for e in attacked]
+
+    def _attacked(self) -> tuple[dict[int, int], list[int]]:
+        """Who is attacked by whom, and the attacked characters that have minds."""
+        attacked_by = attackers_of(self.scene)
+        return attacked_by, [e for e in attacked_by if self.world.entity_exists(e)
+                             and self.world.has_component(e, Mind)]  # fmt: skip
 
     def propose_crowd(self, crowd) -> np.ndarray:
         """:meth:`activation` of every one at once (:func:`defend_activations`)."""
