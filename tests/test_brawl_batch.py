@@ -1,7 +1,8 @@
-"""Grapple and defend over arrays (issue 36): every grappler and every defender of a step in one
-pass (the walking-up grapplers in one ``steer_rows`` call), writing exactly what the
-per-character forms (``Grapple.act``, ``Defend.activation`` and ``Defend.act``, through the
-handle API) write from the same state."""
+"""Grapple, defend and withdraw over arrays (issue 36): every grappler, every defender and every
+one flinching from a blow of a step in one pass (the walking-up grapplers in one ``steer_rows``
+call), writing exactly what the per-character forms (``Grapple.act``, ``Defend.activation`` and
+``Defend.act``, ``Withdraw.activation`` and ``Withdraw.act``, through the handle API) write from
+the same state."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 
 from twig_ecs import Scene
 from twig_ecs.mind import Mind
-from twig_ecs.systems.behaviours import arrays, fight, grapple
+from twig_ecs.systems.behaviours import arrays, fight, grapple, withdraw
 
 #: What grapple and defend write in the character table (``prev``, the blows, apart).
 WRITTEN = ("walk", "gaze_node", "gaze_mode", "arm_mode", "arm_node", "arm_point", "mode", "seat", "mode_time")
@@ -108,6 +109,31 @@ def defences_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     return batch, outcome() | {"proposed": single}
 
 
+def withdrawals_both_ways(scene: Scene) -> tuple[dict, dict] | None:
+    """What the batch and the per-character pain withdrawal propose and write from this state
+    (None: no one withdraws)."""
+    behaviour = scene.behaviors["withdraw"]
+    picked = behaviour.candidates()
+    if not picked:
+        return None
+    entities = [e for e, _ in picked]
+    rows = [scene.character_handle(e).character.index for e in entities]
+    outcome = _restorer(scene, entities)
+
+    class Picked:  # what propose_crowd reads of its crowd
+        pass
+
+    crowd = Picked()
+    crowd.entities = entities
+    proposed = behaviour.propose_crowd(crowd)
+    assert withdraw.act_withdrawals(behaviour, rows, entities), "the batch took the step"
+    batch = outcome() | {"proposed": proposed.tolist()}
+    single = [behaviour.activation(scene.character_handle(e), mind, None) for e, mind in picked]
+    for entity, mind in picked:
+        behaviour.act(scene.character_handle(entity), mind, None, scene.dt)
+    return batch, outcome() | {"proposed": single}
+
+
 def _assert_same(batch: dict, single: dict, step: int) -> None:
     for name in (*WRITTEN, "prev"):
         same = np.array_equal(batch[name], single[name], equal_nan=True)
@@ -144,6 +170,22 @@ def test_defend_over_arrays_proposes_and_writes_what_the_per_character_defend_do
         assert compared > 20
 
 
+def test_withdraw_over_arrays_proposes_and_writes_what_the_per_character_withdrawal_does():
+    with brawling()[0] as scene:
+        staggering = walking_away = 0
+        for step in range(300):
+            if step % 3 == 0:
+                both = withdrawals_both_ways(scene)
+                if both is not None:
+                    _assert_same(*both, step)
+                    for _, retreat in scene.world.get_component(withdraw.Withdrawing):
+                        if retreat.until > scene.time:  # backing off, or walking away after
+                            staggering += retreat.stagger_until > scene.time
+                            walking_away += retreat.stagger_until <= scene.time
+            scene.step()
+        assert staggering > 3 and walking_away > 10, (staggering, walking_away)
+
+
 def test_a_brawl_runs_over_arrays_to_the_same_ends_as_the_per_character_fights(monkeypatch):
     # the whole run, through select_behavior: the same trajectory and the same goal ends
     # (done, let go, stalled) as with the per-character forms alone
@@ -162,6 +204,9 @@ def test_a_brawl_runs_over_arrays_to_the_same_ends_as_the_per_character_fights(m
         )  # select_behavior calls act a character at a time
         per_character.setattr(fight.Defend, "batch", False)
         per_character.setattr(fight.Defend, "propose_crowd", Behavior.propose_crowd)
+        per_character.setattr(withdraw.Withdraw, "batch", False)
+        per_character.setattr(withdraw.Withdraw, "propose_crowd", Behavior.propose_crowd)
+        per_character.setattr(withdraw, "act_withdrawals", None)
         per_character.setattr(grapple, "act_grapples", None)
         per_character.setattr(fight, "act_defences", None)
         single = run()
