@@ -100,8 +100,10 @@ def defences_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     entities = [e for e, _ in picked]
     rows = [scene.character_handle(e).character.index for e in entities]
     outcome = _restorer(scene, entities)
-    proposed = fight.defend_activations(defend, defend.attacked_by, entities)
-    assert fight.act_defences(defend, defend.attacked_by, rows, entities), "the batch took the step"
+    proposed = fight.defend_activations(defend, defend.fighter_rows, entities, np.array(rows))
+    assert fight.act_defences(defend, defend.attacked_by, defend.fighter_rows, rows, entities), (
+        "the batch took the step"
+    )
     batch = outcome() | {"proposed": proposed.tolist()}
     single = [defend.activation(scene.character_handle(e), mind, None) for e, mind in picked]
     for entity, mind in picked:

@@ -99,6 +99,7 @@ class Defend(Behavior):
     def setup(self) -> None:
         """Who is attacked by whom this step (looked up once per step)."""
         self.attacked_by: dict[int, int] = {}
+        self.fighter_rows: dict[int, int] = {}  # the same, the fighter by its character row
 
     def candidates(self) -> list[tuple[int, Mind]]:
         """Only the characters someone is fighting (who fights whom looked up again when the
@@ -107,23 +108,26 @@ class Defend(Behavior):
         state = scene.state
         fights = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("grapple"))
         key = (fights, state.version, id(state))
-        self.attacked_by, attacked = self.scratch.keyed("attacked", key, self._attacked)
+        self.attacked_by, self.fighter_rows, attacked = self.scratch.keyed("attacked", key, self._attacked)
         return [(e, self.world.component_for_entity(e, Mind)) for e in attacked]
 
-    def _attacked(self) -> tuple[dict[int, int], list[int]]:
-        """Who is attacked by whom, and the attacked characters that have minds."""
+    def _attacked(self) -> tuple[dict[int, int], dict[int, int], list[int]]:
+        """Who is attacked by whom (by entity, and by the fighter's character row), and the
+        attacked characters that have minds."""
+        world = self.world
         attacked_by = attackers_of(self.scene)
-        return attacked_by, [e for e in attacked_by if self.world.entity_exists(e)
-                             and self.world.has_component(e, Mind)]  # fmt: skip
+        rows = {e: world.component_for_entity(f, Character).index for e, f in attacked_by.items()}
+        return attacked_by, rows, [e for e in attacked_by if world.entity_exists(e)
+                                   and world.has_component(e, Mind)]  # fmt: skip
 
     def propose_crowd(self, crowd) -> np.ndarray:
         """:meth:`activation` of every one at once (:func:`defend_activations`)."""
-        return defend_activations(self, self.attacked_by, crowd.entities)
+        return defend_activations(self, self.fighter_rows, crowd.entities, crowd.rows)
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
         """:meth:`act` for every defender at once, over arrays (:func:`act_defences`);
         a character at a time where one would be refused."""
-        if not act_defences(self, self.attacked_by, rows, entities):
+        if not act_defences(self, self.attacked_by, self.fighter_rows, rows, entities):
             for entity in entities:
                 mind = self.world.component_for_entity(entity, Mind)
                 self.act(self.scene.character_handle(entity), mind, None, dt)
@@ -159,29 +163,30 @@ class Defend(Behavior):
 # -- the batch form: every defender of a step at once (issue 36) --------------------------------
 
 
-def defend_activations(defend: Behavior, attacked_by: dict[int, int], entities: list[int]) -> np.ndarray:
-    """``Defend.activation`` of every character ``entities`` at once: ``DEFEND`` where the one
-    fighting it (``attacked_by``) is within ``SQUARE_UP`` on the ground, else 0."""
-    world = defend.world
+def defend_activations(defend: Behavior, fighter_rows: dict[int, int], entities: list[int],
+                       rows: np.ndarray) -> np.ndarray:  # fmt: skip
+    """``Defend.activation`` of every character ``entities`` (character rows ``rows``) at once:
+    ``DEFEND`` where the one fighting it (its character row ``fighter_rows[entity]``) is within
+    ``SQUARE_UP`` on the ground, else 0."""
     ch = defend.scene.state.characters
     pos = defend.scene.state.nodes.pos
     out = np.zeros(len(entities))
-    pairs = [(k, attacked_by.get(e)) for k, e in enumerate(entities)]
+    pairs = [(k, fighter_rows.get(e)) for k, e in enumerate(entities)]
     pairs = [(k, f) for k, f in pairs if f is not None]
     if not pairs:
         return out
     picked = np.array([k for k, _ in pairs], dtype=np.int64)
-    mine = [world.component_for_entity(entities[k], Character).index for k, _ in pairs]
-    theirs = [world.component_for_entity(f, Character).index for _, f in pairs]
-    gap = ground_gaps(pos[ch.nodes[mine, PELVIS]], pos[ch.nodes[theirs, PELVIS]])
+    theirs = [f for _, f in pairs]
+    gap = ground_gaps(pos[ch.nodes[rows[picked], PELVIS]], pos[ch.nodes[theirs, PELVIS]])
     out[picked] = np.where(gap < SQUARE_UP, DEFEND, 0.0)
     return out
 
 
-def act_defences(defend: Behavior, attacked_by: dict[int, int], rows: list[int], entities: list[int]) -> bool:
-    """``Defend.act`` for every defender at once: face the fighter (``attacked_by``), guard up,
-    slow steps round to face it when turned away. False, nothing written, when one would be
-    refused (the per-character form raises)."""
+def act_defences(defend: Behavior, attacked_by: dict[int, int], fighter_rows: dict[int, int], rows: list[int],
+                 entities: list[int]) -> bool:  # fmt: skip
+    """``Defend.act`` for every defender at once: face the fighter (``attacked_by``, by entity;
+    ``fighter_rows``, by character row), guard up, slow steps round to face it when turned away.
+    False, nothing written, when one would be refused (the per-character form raises)."""
     scene = defend.scene
     world = defend.world
     ch = scene.state.characters
@@ -191,7 +196,7 @@ def act_defences(defend: Behavior, attacked_by: dict[int, int], rows: list[int],
         return False
     crows = np.array(rows, dtype=np.int64)
     mine = ch.nodes[crows]
-    theirs = ch.nodes[[world.component_for_entity(f, Character).index for f in fighters]]
+    theirs = ch.nodes[[fighter_rows[e] for e in entities]]
     to = (pos[theirs[:, PELVIS]] - pos[mine[:, PELVIS]]) * GROUND
     to /= np.maximum(lengths(to), 1e-9)[:, None]
     # CharacterHandle.facing: (left hip - right hip) x up, of length 1
@@ -202,8 +207,9 @@ def act_defences(defend: Behavior, attacked_by: dict[int, int], rows: list[int],
     facing /= np.where(length != 0.0, length, 1.0)[:, None]
     turning = np.vecdot(facing, to) < FACED
     walk = to * TURN_PACE * ch.scale[crows][:, None]
-    limit = np.array([world.component_for_entity(e, Character).max_speed for e in entities])
-    if not walkable(walk[turning], limit[turning]):
+    turners = [entities[k] for k in np.flatnonzero(turning).tolist()]
+    limit = np.array([world.component_for_entity(e, Character).max_speed for e in turners])
+    if not walkable(walk[turning], limit):
         return False
     ch.gaze_node[crows] = theirs[:, HEAD]  # look_at(fighter, node="head")
     ch.gaze_mode[crows] = GAZE_NODE
