@@ -69,8 +69,9 @@ def _restorer(scene: Scene, entities: list[int]):
     return outcome
 
 
-def grapples_both_ways(scene: Scene) -> tuple[dict, dict] | None:
-    """What the batch and the per-character grapple write from this state (None: no one grapples)."""
+def grapples_both_ways(scene: Scene, left_alone: tuple[str, ...] = ()) -> tuple[dict, dict] | None:
+    """What the batch (those it leaves to the per-character form, named ``left_alone``, acting
+    after it) and the per-character grapple write from this state (None: no one grapples)."""
     behaviour = scene.behaviors["grapple"]
     holders = scene.goal_holders_of("grapple")
     if not holders:
@@ -80,11 +81,14 @@ def grapples_both_ways(scene: Scene) -> tuple[dict, dict] | None:
     goals = [mind.goal for _, mind in holders]
     outcome = _restorer(scene, entities)
     untouched = outcome()
-    took = grapple.act_grapples(behaviour, rows, entities, goals, scene.dt)
-    batch = outcome()
-    if not took:  # a rare event (a walk-up stalled): the per-character form's step, nothing written
-        _assert_same(batch, untouched, -1)
+    left = grapple.act_grapples(behaviour, rows, entities, goals, scene.dt)
+    if len(left) == len(goals):  # a rare event (a walk-up stalled): per character, nothing written
+        _assert_same(outcome(), untouched, -1)
         return None
+    assert [scene.name_of(entities[k]) for k in left] == list(left_alone)
+    for k in left:
+        behaviour.act(scene.character_handle(entities[k]), holders[k][1], goals[k], scene.dt)
+    batch = outcome()
     for entity, (_, mind) in zip(entities, holders, strict=True):
         behaviour.act(scene.character_handle(entity), mind, mind.goal, scene.dt)
     return batch, outcome()
@@ -157,6 +161,21 @@ def test_grapple_over_arrays_writes_what_the_per_character_grapple_does():
                         seen |= {("blow", memory["blow"] % 3)} if "blow" in memory else set()
             scene.step()
         assert seen >= {"walking up", "fighting", ("blow", 0), ("blow", 1), ("blow", 2)}, seen
+
+
+def test_a_grapple_at_a_ragdoll_goes_per_character_and_the_others_over_arrays():
+    scene, goals = brawling()
+    with scene:
+        scene.spawn("humanoid", name="g6", position=(24.0, 0.0, 0.0), character=True)
+        scene.spawn("humanoid", name="doll", position=(24.0, 0.0, 1.5))  # a ragdoll: no character
+        at_doll = scene.entity("g6").grapple("doll", duration=30.0)
+        for step in range(120):
+            if step % 4 == 0:
+                both = grapples_both_ways(scene, left_alone=("g6",))
+                if both is not None:
+                    _assert_same(*both, step)
+            scene.step()
+        assert at_doll.status == "active" and "blow" in at_doll.memory, "it closed in and hits the doll"
 
 
 def test_defend_over_arrays_proposes_and_writes_what_the_per_character_defend_does():

@@ -69,16 +69,16 @@ class Grapple(Behavior):
     batch = True
 
     def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
-        """:meth:`act` for every grappler at once, over arrays (:func:`act_grapples`);
-        a step with a rare event in it (a target gone, a walk-up stalled...) a character at a time."""
+        """:meth:`act` for every grappler at once, over arrays (:func:`act_grapples`); one whose
+        target is no character (a ragdoll), and every one in a step with a rare event in it (a
+        walk-up stalled...), a character at a time."""
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
         live = [k for k, goal in enumerate(goals) if goal is not None]
         rows, entities, goals = [rows[k] for k in live], [entities[k] for k in live], [goals[k] for k in live]
-        if goals and not act_grapples(self, rows, entities, goals, dt):
-            for entity, goal in zip(entities, goals, strict=True):
-                mind = self.world.component_for_entity(entity, Mind)
-                self.act(self.scene.character_handle(entity), mind, goal, dt)
+        for k in act_grapples(self, rows, entities, goals, dt) if goals else ():
+            mind = self.world.component_for_entity(entities[k], Mind)
+            self.act(self.scene.character_handle(entities[k]), mind, goals[k], dt)
 
     def act(self, character, mind: Mind, goal: Goal, dt: float) -> None:
         """Close in, then shove and punch in turn, square to the target (one grappler: the
@@ -190,23 +190,40 @@ def grapple_row(scene, entity: int, goal: Goal) -> dict | None:
 
 
 def act_grapples(grapple: Behavior, rows: list[int], entities: list[int], goals: list[Goal],
-                 dt: float) -> bool:  # fmt: skip
+                 dt: float) -> list[int]:  # fmt: skip
     """``Grapple.act`` for every grappler at once (row k: character ``rows[k]``, entity
     ``entities[k]``, its grapple goal ``goals[k]``): close in (one steering call for all that
-    are still walking up), then shove and punch in turn. False, with nothing written, when a
-    rare event wants the per-character form."""
+    are still walking up), then shove and punch in turn. Returns the k left to the
+    per-character form: those whose target is no character (a ragdoll) or is gone; all of
+    them, with nothing written, when a rare event wants the per-character form."""
     scene = grapple.scene
     state = scene.state
-    ch = state.characters
-    nodes = state.nodes
-    pos = nodes.pos
     table = grapple.scratch.get("brawl")
     if table is None:
         table = grapple.scratch["brawl"] = RowTable(**_GRAPPLE_ROW)
     table.sync([goal.id for goal in goals], (state.version, id(state)),
                lambda i, _: grapple_row(scene, entities[i], goals[i]))  # fmt: skip
-    if table.missing:
-        return False
+    left = list(table.missing)
+    # one that fights per character throws its blows after these (so none may pursue it)
+    busy = {entities[k] for k in left if "fighting" in goals[k].memory}
+    at = table.positions.tolist()
+    packed = [rows[k] for k in at], [entities[k] for k in at], [goals[k] for k in at]
+    if not _act_packed(grapple, table, *packed, dt, busy):
+        return list(range(len(goals)))
+    return left
+
+
+def _act_packed(grapple: Behavior, table: RowTable, rows: list[int], entities: list[int], goals: list[Goal],
+                dt: float, busy: set[int]) -> bool:  # fmt: skip
+    """:func:`act_grapples` for the grapplers with a row of ``table`` (in its order); False,
+    nothing written, when a rare event wants the per-character form (``busy``: the entities
+    of grapplers fighting per character)."""
+    scene = grapple.scene
+    ch = scene.state.characters
+    nodes = scene.state.nodes
+    pos = nodes.pos
+    if not goals:
+        return True
     crows = np.array(rows, dtype=np.int64)
     mine, theirs = ch.nodes[crows], ch.nodes[table["target"]]
     here, there = pos[mine[:, PELVIS]], pos[theirs[:, PELVIS]]
@@ -218,8 +235,8 @@ def act_grapples(grapple: Behavior, rows: list[int], entities: list[int], goals:
     fighting = np.array(["fighting" in m for m in memories], dtype=bool)
     walking = np.flatnonzero(~fighting)
     fights = np.flatnonzero(fighting)
-    if len(walking) and len(fights):
-        busy = {entities[k] for k in fights.tolist()}
+    if len(walking) and (len(fights) or busy):
+        busy = busy | {entities[k] for k in fights.tolist()}
         if any(e in busy for e in table["entity"][walking].tolist()):
             return False  # it pursues one that throws blows: their order matters (per character)
 
