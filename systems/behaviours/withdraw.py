@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Character
-from twig_ecs.kernelmath import GAZE_AHEAD, GAZE_NODE, GRAPPLE, HANG, SIT
+from twig_ecs.components import Body, Character
+from twig_ecs.kernelmath import GAZE_AHEAD, GAZE_NODE, GRAPPLE, HANG, SIT, SPINE
 from twig_ecs.step import StepContext
 from twig_ecs.systems.behaviours.arrays import roots, walkable
 
@@ -134,18 +134,21 @@ def act_withdrawals(withdraw: Behavior, rows: list[int], entities: list[int]) ->
     limit = np.array([world.component_for_entity(e, Character).max_speed for e in entities])
     if not walkable(walk, limit):
         return False
-    # whom a staggering one watches: the node look_at tracks on a character (its spine; a
-    # body with a node called centre, or none called spine, per character)
+    # whom a staggering one watches (not itself): the node look_at tracks, by source
+    state = scene.state
+    tracked = withdraw.scratch.keyed("watched", (state.version, id(state)), dict)
     watched, watch = [], []
     for k in np.flatnonzero(staggering).tolist():
-        source = scene.name_of(retreats[k].source)
-        if not source or source == scene.name_of(entities[k]):
+        source = retreats[k].source
+        node = tracked.get(source)
+        if node is None:
+            node = tracked[source] = _watched_node(scene, source)
+        if node == _UNWATCHED or source == entities[k]:
             continue
-        them = world.try_component(retreats[k].source, Character)
-        if them is None or "centre" in scene.entity(source).node_names:
+        if node == _NOT_A_CHARACTER:
             return False
         watched.append(k)
-        watch.append(scene.entity(source).body.node_index("spine"))
+        watch.append(node)
     ch.walk[crows] = walk
     ch.walk[crows, 1] = 0.0
     ch.arm_mode[crows] = np.where(staggering, GRAPPLE, HANG)[:, None]
@@ -155,3 +158,20 @@ def act_withdrawals(withdraw: Behavior, rows: list[int], entities: list[int]) ->
     for k in np.flatnonzero(ch.mode[crows] == SIT).tolist():
         scene.character_handle(entities[k]).stand()  # (a walk stands a sitter up)
     return True
+
+
+#: What :func:`_watched_node` says of a source that has no name (nothing to look at), and of
+#: one that is no character (look_at finds the node to track: per character).
+_UNWATCHED, _NOT_A_CHARACTER = -1, -2
+
+
+def _watched_node(scene, source: int) -> int:
+    """The node ``look_at(name of source)`` tracks on a character: its node called spine (a
+    character's spine role); ``_UNWATCHED`` for a source without a name, ``_NOT_A_CHARACTER``
+    for one that is no character or has a node called centre (which look_at would track)."""
+    if not scene.name_of(source):
+        return _UNWATCHED
+    them = scene.world.try_component(source, Character)
+    if them is None or "centre" in scene.world.component_for_entity(source, Body).node_names:
+        return _NOT_A_CHARACTER
+    return int(scene.state.characters.nodes[them.index, SPINE])
