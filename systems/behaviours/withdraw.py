@@ -4,7 +4,9 @@ Reads this step's ``pain`` events; when a character is hurt it staggers back fro
 body that hurt it - for ``DURATION`` seconds it backs off at ``SPEED`` with its arms up
 and its eyes on the source - then turns its back on it and walks away for ``TURN_AWAY``
 seconds. Its activation beats any commanded goal, so it wins at once; afterwards the
-interrupted goal carries on.
+interrupted goal carries on. Every retreating character of a step is proposed for and moved
+at once, over arrays (:func:`act_withdrawals`), with :meth:`Withdraw.act`'s arithmetic
+(tests/test_brawl_batch.py compares the two).
 """
 
 from __future__ import annotations
@@ -14,8 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Mind, register
-from twig_ecs.components import Character
+from twig_ecs.components import Body, Character
+from twig_ecs.kernelmath import GAZE_AHEAD, GAZE_NODE, GRAPPLE, HANG, SIT, SPINE
 from twig_ecs.step import StepContext
+from twig_ecs.systems.behaviours.arrays import roots, walkable
 
 
 @dataclass(slots=True)
@@ -41,6 +45,7 @@ class Withdraw(Behavior):
 
     name = "withdraw"
     reflex = True
+    batch = True
 
     def run(self, ctx: StepContext) -> None:
         """Start retreats for this step's blows, then propose activations."""
@@ -67,8 +72,23 @@ class Withdraw(Behavior):
         return [(e, world.component_for_entity(e, Mind)) for e, retreat in world.get_component(Withdrawing)
                 if retreat.until > now and world.has_component(e, Mind)]  # fmt: skip
 
+    def propose_crowd(self, crowd) -> np.ndarray:
+        """:meth:`activation` of every one at once."""
+        now = self.scene.time
+        retreats = [self.world.try_component(e, Withdrawing) for e in crowd.entities]
+        return np.array([ACTIVATION if r is not None and r.until > now else 0.0 for r in retreats])
+
+    def act_batch(self, rows: list[int], entities: list[int], dt: float, goals: list | None = None) -> None:
+        """:meth:`act` for every retreating character at once, over arrays (:func:`act_withdrawals`);
+        a character at a time where one would be refused."""
+        if not act_withdrawals(self, rows, entities):
+            for entity in entities:
+                mind = self.world.component_for_entity(entity, Mind)
+                self.act(self.scene.character_handle(entity), mind, None, dt)
+
     def activation(self, character, mind: Mind, goal) -> float:
-        """High while a retreat is running."""
+        """High while a retreat is running (one character: the per-character form of
+        :meth:`propose_crowd`)."""
         retreat = self.world.try_component(character.entity, Withdrawing)
         return ACTIVATION if retreat is not None and retreat.until > self.scene.time else 0.0
 
@@ -95,3 +115,63 @@ class Withdraw(Behavior):
         character.stop()
         character.pose("hang")
         character.look_at(None)
+
+
+def act_withdrawals(withdraw: Behavior, rows: list[int], entities: list[int]) -> bool:
+    """``Withdraw.act`` for every retreating character at once: staggering back, arms up, eyes
+    on the source; then walking away, arms down. False, nothing written, when one would be
+    refused or looks at a source that is no character (the per-character form does that)."""
+    scene = withdraw.scene
+    world = withdraw.world
+    ch = scene.state.characters
+    now = scene.time
+    retreats = [world.component_for_entity(e, Withdrawing) for e in entities]
+    crows = np.array(rows, dtype=np.int64)
+    staggering = np.array([r.stagger_until > now for r in retreats], dtype=bool)
+    away = np.array([r.away for r in retreats], dtype=np.float64).reshape(-1, 3)
+    root = roots(ch.scale[crows])
+    walk = np.where(staggering[:, None], away * SPEED * root[:, None], away * AWAY_PACE * root[:, None])
+    limit = np.array([world.component_for_entity(e, Character).max_speed for e in entities])
+    if not walkable(walk, limit):
+        return False
+    # whom a staggering one watches (not itself): the node look_at tracks, by source
+    state = scene.state
+    tracked = withdraw.scratch.keyed("watched", (state.version, id(state)), dict)
+    watched, watch = [], []
+    for k in np.flatnonzero(staggering).tolist():
+        source = retreats[k].source
+        node = tracked.get(source)
+        if node is None:
+            node = tracked[source] = _watched_node(scene, source)
+        if node == _UNWATCHED or source == entities[k]:
+            continue
+        if node == _NOT_A_CHARACTER:
+            return False
+        watched.append(k)
+        watch.append(node)
+    ch.walk[crows] = walk
+    ch.walk[crows, 1] = 0.0
+    ch.arm_mode[crows] = np.where(staggering, GRAPPLE, HANG)[:, None]
+    ch.gaze_node[crows[watched]] = watch
+    ch.gaze_mode[crows[watched]] = GAZE_NODE
+    ch.gaze_mode[crows[~staggering]] = GAZE_AHEAD
+    for k in np.flatnonzero(ch.mode[crows] == SIT).tolist():
+        scene.character_handle(entities[k]).stand()  # (a walk stands a sitter up)
+    return True
+
+
+#: What :func:`_watched_node` says of a source that has no name (nothing to look at), and of
+#: one that is no character (look_at finds the node to track: per character).
+_UNWATCHED, _NOT_A_CHARACTER = -1, -2
+
+
+def _watched_node(scene, source: int) -> int:
+    """The node ``look_at(name of source)`` tracks on a character: its node called spine (a
+    character's spine role); ``_UNWATCHED`` for a source without a name, ``_NOT_A_CHARACTER``
+    for one that is no character or has a node called centre (which look_at would track)."""
+    if not scene.name_of(source):
+        return _UNWATCHED
+    them = scene.world.try_component(source, Character)
+    if them is None or "centre" in scene.world.component_for_entity(source, Body).node_names:
+        return _NOT_A_CHARACTER
+    return int(scene.state.characters.nodes[them.index, SPINE])
