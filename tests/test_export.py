@@ -196,7 +196,26 @@ def test_the_head_faces_where_the_character_looks(yard, gltf, figure):
     assert np.ptp(np.degrees(np.arctan2(looks[:, 0], looks[:, 2]))) > 20  # it did look about
 
 
-@pytest.mark.parametrize("figure", ["parent", "big_child", "small_child"])
+def _knee_bends(track, side: str) -> np.ndarray:
+    """The knee's bend (degrees) on ``side`` in every frame of a recorded track."""
+    at = {name: k for k, name in enumerate(track.node_names)}
+    p = track.positions
+    hip, knee, foot = (at[f"{side}_{n}"] for n in ("hip", "knee", "foot"))
+    thigh, shin = p[:, knee] - p[:, hip], p[:, foot] - p[:, knee]
+    cosine = (thigh * shin).sum(-1) / np.linalg.norm(thigh, axis=-1) / np.linalg.norm(shin, axis=-1)
+    return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+def test_a_straight_knee_exports_straight(yard, gltf):
+    # the caregiver stands and watches these 10 s, on straight legs since issue 35 (before, its
+    # knees stood bent 38-40 degrees and the hinge test below read them)
+    for side in "lr":
+        assert _knee_bends(yard.tracks["parent"], side).max() <= 10.0
+        q = gltf["local"][f"parent:{'Left' if side == 'l' else 'Right'}Leg"]
+        assert np.degrees(2.0 * np.arccos(np.clip(np.abs(q[:, 3]), 0.0, 1.0))).max() <= 12.0, side
+
+
+@pytest.mark.parametrize("figure", ["big_child", "small_child"])
 def test_a_bent_knee_turns_the_shin_about_the_knee_hinge_only(yard, gltf, figure):
     track = yard.tracks[figure]
     at = {name: k for k, name in enumerate(track.node_names)}

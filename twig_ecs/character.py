@@ -53,7 +53,7 @@ STOOP_LEAN = math.sin(math.radians(25.0))
 #: Height (m) of the reference humanoid; characters scale their gait by height / this.
 REFERENCE_HEIGHT = 1.75
 #: Standing pelvis height as a fraction of the template's: knees slightly bent.
-STANCE = 0.96
+STANCE = 1.0
 #: Farthest a hand may be from what it grabs (m, at reference height).
 GRAB_REACH = 0.3
 

@@ -95,11 +95,24 @@ def walk_figures(track: Track) -> dict[str, float]:
         out["cadence"] = 0.0
     # step length: along the walk, from one foot's touchdown to the other foot's next one
     feet = (track.pos["l_foot"], track.pos["r_foot"])
-    lengths = []
+    lengths: list[float] = []
+    by_foot: tuple[list[float], list[float]] = ([], [])  # steps ending on the left, on the right foot
     for (k0, f0), (k1, f1) in zip(downs, downs[1:], strict=False):
         if f0 != f1:
             lengths.append(float((feet[f1][k1] - feet[f0][k0]) @ track.heading))
+            by_foot[f1].append(lengths[-1])
     out["step"] = float(np.median(lengths)) if lengths else 0.0
+    # left and right steps alike: the difference of their medians over their mean
+    if by_foot[0] and by_foot[1]:
+        left, right = float(np.median(by_foot[0])), float(np.median(by_foot[1]))
+        out["step_lr"] = abs(left - right) / max(0.5 * (left + right), 1e-9)
+    else:
+        out["step_lr"] = math.nan
+    # the pelvis's pace along the walk, frame by frame: its lowest and highest over its mean
+    pace = np.diff(track.pos["pelvis"] @ track.heading) / track.dt
+    mean = float(pace.mean()) if pace.size else 0.0
+    out["pace_low"] = float(pace.min() / mean) if mean > 1e-6 else math.nan
+    out["pace_high"] = float(pace.max() / mean) if mean > 1e-6 else math.nan
     flex = []
     for f, side in enumerate("lr"):
         angles = knee_flexion(track.pos[f"{side}_hip"], track.pos[f"{side}_knee"], feet[f])
@@ -133,6 +146,14 @@ def walk_figures(track: Track) -> dict[str, float]:
     return out
 
 
+def stance_knees(track: Track) -> float:
+    """Median knee flexion (degrees) of both legs over a track (standing: every frame)."""
+    angles = [
+        knee_flexion(track.pos[f"{s}_hip"], track.pos[f"{s}_knee"], track.pos[f"{s}_foot"]) for s in "lr"
+    ]
+    return float(np.median(np.concatenate(angles)))
+
+
 def leg_length(handle) -> float:
     """Hip-knee plus knee-foot (m) as the body stands now."""
     hip, knee, foot = (handle.node(n) for n in ("l_hip", "l_knee", "l_foot"))
@@ -164,6 +185,23 @@ def measure_walk(height: float, speed: float, settle: float = 2.5, seconds: floa
         figures["froude"] = speed**2 / (9.81 * legs)
         figures["legs"] = legs
         return figures
+    finally:
+        scene.close()
+
+
+def measure_stand(height: float, settle: float = 1.0, seconds: float = 2.0) -> dict[str, float]:
+    """A ``height`` m character standing still: median knee flexion (degrees), pelvis height
+    over its standing height, foot moves."""
+    scene = _scene()
+    try:
+        person = _walker(scene, "stander", height)
+        scene.run(settle)
+        track = record(person, seconds)
+        return {
+            "knee": stance_knees(track),
+            "pelvis": float(track.pos["pelvis"][:, 1].mean() / track.stand_height),
+            "moves": float(foot_moves(track)),
+        }
     finally:
         scene.close()
 
@@ -210,7 +248,8 @@ def measure_idle(seconds: float = 10.0, settle: float = 1.0) -> dict[str, int]:
 HUMAN = {
     "cadence": "adult 1.2 m/s: 1.8-2.0 /s; 1.05 m child 1.0 m/s: 2.5-3",
     "step": "adult 1.2 m/s: 0.65-0.75 m (~0.4 x height)",
-    "knee": "stance 5-20 deg",
+    "knee": "stance 5-20 deg; standing 0-10",
+    "pace": "pelvis pace through a step within +-20% of its mean; left and right steps within 5%",
     "pelvis": "close to standing (>= 0.9), bob 2-5 cm",
     "double": "~0.20 at a normal walk, less faster; none running",
     "flight": "0 walking; running 0.1-0.3 (both feet up)",
@@ -231,19 +270,22 @@ def table(sizes=SIZES, speeds=SPEEDS) -> list[dict[str, float]]:
     return rows
 
 
-def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str:
-    """The lab's printed report: walk table, U-turn pitch and idle re-steps beside a person's."""
+def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
+                  standing: dict[float, float] | None = None) -> str:  # fmt: skip
+    """The lab's printed report: walk table, U-turn pitch, standing knees and idle re-steps
+    beside a person's."""
     lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
     head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
             f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'flight':>6} {'lift cm':>7} "
-            f"{'ahead cm':>8}")  # fmt: skip
+            f"{'ahead cm':>8} {'pace -%':>7} {'pace +%':>7} {'L/R %':>5}")  # fmt: skip
     lines += [head, "-" * len(head)]
     for r in rows:
         lines.append(
             f"{r['height']:6.2f} {r['asked']:5.2f} {r['speed']:5.2f} {r['froude']:5.2f} {r['cadence']:7.2f} "
             f"{r['step']:6.2f} {r['step'] / r['legs']:6.2f} {r['knee']:5.0f} {r['pelvis']:6.2f} "
             f"{100 * r['bob']:6.1f} {r['double']:6.2f} {r.get('flight', 0.0):6.2f} {100 * r['lift']:7.1f} "
-            f"{100 * r['ahead']:8.1f}"
+            f"{100 * r['ahead']:8.1f} {100 * (1.0 - r.get('pace_low', 1.0)):7.0f} "
+            f"{100 * (r.get('pace_high', 1.0) - 1.0):7.0f} {100 * r.get('step_lr', 0.0):5.1f}"
         )
     lines += [
         "",
@@ -255,6 +297,10 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int]) -> str
         + ", ".join(f"{h:.2f} m: {p:.0f}" for h, p in uturns.items())
         + f"   (a person: {HUMAN['uturn']})",
     ]
+    if standing:
+        lines += ["Standing still, median knee flexion (deg): "
+                  + ", ".join(f"{h:.2f} m: {k:.0f}" for h, k in standing.items())
+                  + "   (a person: 0-10)"]  # fmt: skip
     lines += ["Foot moves in 10 s standing in the playground: "
               + ", ".join(f"{name} ({IDLE[name]}): {n}" for name, n in idle.items())
               + f"   (a person: {HUMAN['idle']})"]  # fmt: skip
@@ -292,7 +338,8 @@ def run_lab(sheet: str | Path | None = None, sizes=SIZES, speeds=SPEEDS) -> str:
     returns the printed report."""
     rows = table(sizes, speeds)
     uturns = {h: measure_uturn(h) for h in sizes}
-    text = format_report(rows, uturns, measure_idle())
+    standing = {h: measure_stand(h)["knee"] for h in sorted({*sizes, 1.2})}
+    text = format_report(rows, uturns, measure_idle(), standing)
     if sheet:
         text += f"\nContact sheet (side view, {sizes[-1]:.2f} m at 1.2 m/s, 0.1 s apart): "
         text += str(contact_sheet(sheet, height=sizes[-1]))

@@ -79,7 +79,8 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
 #: Gathering: a stalled walker ends "done" when another character stands still this near it
 #: (m at 1.75 m tall, plus 0.3 m), nearer the target by at least SETTLE_AHEAD - it is as
 #: close as the others allow. Still: its pelvis slower than SETTLE_STILL.
-SETTLE_NEAR = 1.5
+SETTLE_NEAR = 1.8  # (1.5 before straight-legged standing: the second ring of ten settled 1.8-2.0 m
+# out, 1.3 m beyond the first, and the small child there failed 'stuck')
 SETTLE_AHEAD = 0.1
 SETTLE_STILL = 0.3  # m/s
 

@@ -109,7 +109,8 @@ DRAG_STAND = 0.5  # m from the held wrists (or ankles) to where the dragger stan
 DRAG_STRIDE = 0.35  # m: a backward step's length, unloaded
 DRAG_MOST_PACE = 0.5  # m/s (at 1.75 m, by the root of the size): the fastest backward pace
 DRAG_LEAN = 0.1  # m the shoulders are held behind the pelvis: leaning back against the load
-DRAG_CROUCH = 0.06  # of standing height: knees a little bent
+DRAG_CROUCH = 0.1  # of standing height: knees bent, braced (0.06 before straight-legged standing:
+# the legs then hardly bent, and a backward step reached no further than 0.23 m from its hip)
 DRAG_HANDS = (0.35, 0.75, 0.14)  # m ahead of the pelvis, height over the ground, apart: arms long
 DRAG_GRAB_TIME = 4.0  # s to get both hands on once there
 DRAG_MAKE_DO = 2.5  # s: a hand that has not got its wrist (or ankle) by then takes the nearest part

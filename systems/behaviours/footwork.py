@@ -22,10 +22,13 @@ TURN_GAIN = 60.0  # 1/s: the pivot's yaw velocity servo
 YAW_DAMP = 60.0  # 1/s: what posture's yaw control damps a standing pelvis's turn with (added back)
 TURNED = math.cos(math.radians(20.0))  # facing this near the way wanted: turned
 BACK_STEP_TIME = 0.32  # s a backward step is in the air (at 1.75 m, by the root of the size)
-BACK_PAUSE = 0.1  # s both feet down between backward steps at the least (braced)
+BACK_REACH = 0.97  # of the leg's length: the farthest from its hip a backward step lands
+BACK_PAUSE = 0.06  # s both feet down between backward steps at the least (braced; 0.1 before the
+# reach cut strides short: the fastest drag then went 0.35 m/s, under the pace it can step)
 #: of a stride: how far the feet's middle, and the pelvis over it, move back with each step
-#: (measured: the pelvis lags the feet, so a step lands short of a stride behind the other)
-BACK_SHIFT = 2.0 / 3.0
+#: (measured: the pelvis lags the feet, so a step lands short of a stride behind the other;
+#: 2/3 on the crouched gait, 0.9 on straight legs: the doll dragged at 0.25 m/s went 0.24)
+BACK_SHIFT = 0.9
 
 
 def flat_unit(v: np.ndarray) -> np.ndarray:
@@ -86,6 +89,18 @@ def step_back(character, memory: dict, facing: np.ndarray, stride: float, pace: 
     side = float((character.position - other) @ left) + (1.2 * half if f == 0 else -1.2 * half)
     target = other - stride * facing + side * left
     target[1] = nodes.radius[feet[f]]
+    # no further than the leg reaches from its hip, straight: a foot set down at full stretch
+    # is a stretched leg, which the gait steps back under the hip at once (the stride lost)
+    hip = character.node(("l_hip", "r_hip")[f])
+    drop = float(hip[1] - target[1])
+    reach = math.sqrt(max(0.0, (BACK_REACH * float(ch.leg_length[row])) ** 2 - drop * drop))
+    out = (target - hip) * np.array([1.0, 0.0, 1.0])
+    far = float(np.linalg.norm(out))
+    if far > reach:
+        target = hip + out * (reach / far)
+        target[1] = nodes.radius[feet[f]]
     flight = BACK_STEP_TIME * math.sqrt(character.scale)
     launch_kick(character, FEET[f], target, flight)
+    # (the next step as soon as this one's length calls for: one cut short by the leg's reach, sooner)
+    stride = min(stride, max(0.0, float((other - target) @ facing)))
     memory["step_at"] = scene.time + max(flight + BACK_PAUSE, BACK_SHIFT * stride / pace)

@@ -105,7 +105,7 @@ REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and g
 CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
 WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root of its size:
 # bodies of other sizes walk alike at equal Froude numbers - a 1.05 m child ~1.0 m/s)
-RUN_FROUDE = 1.2  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
+RUN_FROUDE = 0.8  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
 BRAKE = 1.5  # m/s^2: how hard the walk-up slows over its last steps (a person stops within a step)
 SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug (turning back
 # to face each other brings them in a little: they end 0.8-0.9 m apart)
@@ -119,6 +119,7 @@ LEAN_MOST = 25.0  # degrees of torso pitch at which that lean has faded out ...
 LEAN_FADE = 10.0  # ... from full at this many degrees less
 BIG = 1.25  # a partner this many times the hugger's size is big: it holds firm when leant on
 SMALL = 0.8  # a partner this many times the hugger's size is small: the hugger stoops to it
+SMALL_BACK = 0.25  # of the way from a small partner's neck down to its spine node the arms go round
 DOCK_FROM = 1.6  # m (ground, pelvis to pelvis) from which the walk-up goes straight at the partner
 DOCK = 0.3  # m/s: the least pace of the last steps in - people slow down before they touch
 HAND_SPEED = 0.6  # m/s: how fast the point a hand reaches for glides round (a hand that
@@ -275,7 +276,10 @@ def hug_arms(pos, prev, link_a, link_b, link_radius, nodes, scale, mode, walk, l
         if other < SMALL * s:
             # a child in a grown-up's arms: its upper back is below where the arms reach from
             # standing (an adult's hands at a 1.05 m child's neck are 0.6 m below its
-            # shoulders), so the grown-up bends and sinks to it (CharacterHandle.stoop, after)
+            # shoulders), so the grown-up bends and sinks to it (CharacterHandle.stoop, after);
+            # the arms go round below the child's shoulders, not over them (a hand riding up
+            # over a shoulder came 10 cm above the child's neck)
+            y -= SMALL_BACK * (cy - pos[od[SPINE], 1])
             stoop_at[k, 0], stoop_at[k, 1], stoop_at[k, 2] = cx, y, cz
             asks[k] |= STOOP
         # as far round towards the spine as the arms will go (a straight line from the

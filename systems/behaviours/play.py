@@ -24,6 +24,7 @@ from twig_ecs.steering import ground_distance
 from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.behaviours.approach import walk_towards
 from twig_ecs.systems.behaviours.kick import FEET, foot_busy, launch_kick
+from twig_ecs.systems.control.gait import KICK_DIP
 
 HIPS = {"l_foot": "l_hip", "r_foot": "r_hip"}  # the hip above each foot
 
@@ -459,9 +460,12 @@ def _round_the_toy(here: np.ndarray, toy: np.ndarray, aim: np.ndarray, left: np.
 
 def _reach(character, hip: np.ndarray, height: float) -> float:
     """How far (m, on the ground) from ``hip`` a swinging foot reaches at ``height``, less a
-    margin (``REACH``): the gait's guide pulls a foot sent further in, and slows it."""
+    margin (``REACH``): the gait's guide pulls a foot sent further in, and slows it. Reckoned,
+    as the gait does, from the hip KICK_DIP leg lengths lower: the standing knee gives as the
+    foot swings (from the straight-legged standing hip, a 1.2 m child's reach was 0.2 m and it
+    stepped to and fro by the ball for up to 20 s)."""
     leg = float(character.scene.state.characters.leg_length[character.character_row])
-    drop = hip[1] - height
+    drop = hip[1] - KICK_DIP * leg - height
     return REACH * float(np.sqrt(max(0.0, (0.99 * leg) ** 2 - drop * drop)))
 
 

@@ -55,7 +55,7 @@ from twig_ecs.system import System
 
 STILL_STEP = 1.3  # sqrt(L / g): how long a step to keep balance takes, standing
 LIFT = 0.14  # of the leg's length: the top of a foot's arc above the ground
-LEAD = 0.6  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
+LEAD = 0.5  # of the step length: a landing foot is this far ahead of its hip (stance spans 1.2 steps)
 MOST_AHEAD = 0.45  # of the leg's length: never lands further ahead of the hip than this
 SKIP = 0.08  # of the leg's length: a walking step this short is not worth taking
 STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip steps back
@@ -63,24 +63,37 @@ STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of it
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
 DOWN = 0.3  # of standing height: a pelvis below it is down on the ground (it gets up through a kneel:
-# posture.py)
-WALK_HEIGHT = 0.975  # of a planted leg's length: how far its hip rides from its foot at a walk
+# posture.py; from higher, a deep fold, it rises at the posture's GET_UP rate)
+WALK_HEIGHT = 1.0  # of a planted leg's length: how far its hip rides from its foot at a walk (straight)
+HEEL_RISE = 0.16  # of the leg's length: the most a trailing foot's heel comes up in double support
+HEEL_DROP = 1.0  # leg lengths per second: how fast a heel no longer held up comes down
+PRESWING = 1.0  # of HEEL_RISE: how far the heel of the foot about to step is up by the end of double support
+PUSH_FOLD = 0.3  # of the way the knee of a rising heel bends at once (the rest pushes the hip on: push-off)
+HEEL_SLACK = 0.997  # of the leg's length: a trailing heel rises to keep its hip this near
 GUIDE_REACH = 0.99  # of the leg's length: a swinging foot stays (and lands) this near its hip
+KICK_DIP = 0.1  # of the leg's length: how much lower than now a kick reckons its hip will be
 GUIDE_STEPS = 3  # a foot this few frames from landing is no longer re-aimed (only kept in reach)
 HURRY = 0.99  # of the leg's length: a planted leg this straight (its foot behind or to the side)
 # brings the swinging foot down now
-HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far from under the hip
+HURRY_AWAY = 0.2  # of the leg's length: ... and its foot this far to the side of the hip
+HURRY_BEHIND = 0.5  # of the leg's length: ... or this far behind it
 FOOT_SPEED = 1.5  # sqrt(g L): the fastest a re-aimed swinging foot goes walking (4.4 m/s for an adult)
 RUN_FOOT_SPEED = 2.5  # of the pace: running, a swinging foot may go this fast (it covers two steps
 # in 1.2 step periods running, 1.7 times the pace on average)
 HURRY_TIME = 0.1  # s: how soon a hurried swing lands
-KNEE_LEAD = 0.7  # of the foot's launch speed (over the knee's) given to the knee along the ground
+KNEE_FOLD = 2.5  # m/s (at 1.75 m tall, by the root of the size): the fastest a rising heel folds
+# its knee forwards (a knee thrust faster is a blow to whoever stands close)
+KNEE_FOLD_PACE = 4.0  # ... or this many times the walk's pace, if more (a brisk walk's push-off)
+LEAD_FOLD = 0.8  # m/s (at 1.75 m tall, by the root of the size): ... and the fastest lead_knee folds it
+HEEL_STEP = 0.05  # of the leg's length: the most a heel comes up in a frame for the step to come
+SET_OFF = 0.5  # of HEEL_RISE: a walking step from a foot behind its hip waits for its heel this far up
+KNEE_LEAD = 1.0  # of the foot's launch speed (over the knee's) given to the knee along the ground
 SLIP = 1.05  # a planted foot pulled this far (fraction of the leg's length) slips free
 FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and the planted one
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
-ARM_SWING = 0.8  # m/s of hand velocity per m/s of walking, given at each step
+ARM_SWING = 0.6  # m/s of hand velocity per m/s of walking, given at each step
 
 
 class GaitColumns(NamedTuple):
@@ -133,8 +146,158 @@ def swinging(flags, move_time, i):
     return move_time[i] > 0.0 and flags[i] & NODE_MOVING and not flags[i] & NODE_LOCKED
 
 
+@njit(cache=True, inline="always")
+def heel_room(y, radius, legs):
+    """How much higher (m) a planted foot at height ``y`` may lift its heel: a trailing foot in
+    double support rises on its toes up to HEEL_RISE leg lengths above the ground (a
+    point foot: its node, the ankle, comes up), so that the leading leg carries the hips."""
+    return max(0.0, radius + HEEL_RISE * legs - y)
+
+
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def knee_between(hx, hy, hz, fx, fy, fz, thigh, shin, bx, bz):
+    """Where a knee joins a ``thigh`` and a ``shin`` (m) from a hip at (hx, hy, hz) to a foot at
+    (fx, fy, fz), bent towards the ground direction (``bx``, ``bz``): (x, y, z, ok) - ``ok``
+    False when the leg cannot bend there (too far apart, or the bend along the leg)."""
+    ax, ay, az = fx - hx, fy - hy, fz - hz
+    d = math.sqrt(ax * ax + ay * ay + az * az)
+    if d >= thigh + shin or d < 1e-6:
+        return hx, hy, hz, False
+    ax, ay, az = ax / d, ay / d, az / d
+    # the bend direction, less its part along the leg: where the knee sticks out
+    along = bx * ax + bz * az
+    px, py, pz = bx - along * ax, -along * ay, bz - along * az
+    pn = math.sqrt(px * px + py * py + pz * pz)
+    if pn < 1e-6:
+        return hx, hy, hz, False
+    a = (thigh * thigh - shin * shin + d * d) / (2.0 * d)
+    b = math.sqrt(max(0.0, thigh * thigh - a * a)) / pn
+    return hx + a * ax + b * px, hy + a * ay + b * py, hz + a * az + b * pz, True
+
+
+@njit(cache=True, inline="always")
+def leg_parts(pos, h, kn, i):
+    """(thigh, shin) lengths (m) of the leg hip ``h``, knee ``kn``, foot ``i`` as it is now."""
+    thigh = math.sqrt((pos[kn, 0] - pos[h, 0]) ** 2 + (pos[kn, 1] - pos[h, 1]) ** 2
+                      + (pos[kn, 2] - pos[h, 2]) ** 2)
+    shin = math.sqrt((pos[kn, 0] - pos[i, 0]) ** 2 + (pos[kn, 1] - pos[i, 1]) ** 2
+                     + (pos[kn, 2] - pos[i, 2]) ** 2)
+    return thigh, shin
+
+
+@njit(cache=True, nogil=True)
+def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
+    """Move knee node ``kn`` part of the way (PUSH_FOLD) to where a ``thigh`` and a ``shin`` join
+    hip ``h`` to foot ``i``, bent forwards (``bx``, ``bz``: the body's forward); its velocity is
+    kept. A foot brought nearer its hip with the knee left straight would push the hip away
+    like a rod."""
+    x, y, z, ok = knee_between(pos[h, 0], pos[h, 1], pos[h, 2], pos[i, 0], pos[i, 1], pos[i, 2], thigh, shin,
+                               bx, bz)
+    if not ok:
+        return
+    for q, new in ((0, x), (1, y), (2, z)):
+        move = PUSH_FOLD * (new - pos[kn, q])
+        prev[kn, q] += move
+        pos[kn, q] += move
+
+
+@njit(cache=True, nogil=True)
+def lead_knee(pos, prev, h, kn, i, bx, bz, most):
+    """A foot setting off: give knee node ``kn`` the velocity that keeps it where thigh and shin
+    join the hip and the foot next frame (bent forwards, ``bx``, ``bz``), so a straight leg folds
+    at once rather than push the hip away like a rod (a standing step would hop) - but at most
+    ``most`` metres this frame beyond where the hip carries it: a knee thrust forwards faster
+    is a blow to whoever stands close (a hugger stepping back from its partner hurt it)."""
+    thigh, shin = leg_parts(pos, h, kn, i)
+    hx, hy, hz = 2.0 * pos[h, 0] - prev[h, 0], 2.0 * pos[h, 1] - prev[h, 1], 2.0 * pos[h, 2] - prev[h, 2]
+    x, y, z, ok = knee_between(hx, hy, hz, 2.0 * pos[i, 0] - prev[i, 0], 2.0 * pos[i, 1] - prev[i, 1],
+                               2.0 * pos[i, 2] - prev[i, 2], thigh, shin, bx, bz)
+    if ok:
+        cx, cy, cz = pos[kn, 0] + hx - pos[h, 0], pos[kn, 1] + hy - pos[h, 1], pos[kn, 2] + hz - pos[h, 2]
+        ex, ey, ez = x - cx, y - cy, z - cz
+        far = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if far > most:
+            ex, ey, ez = ex * most / far, ey * most / far, ez * most / far
+        prev[kn, 0] = 2.0 * pos[kn, 0] - (cx + ex)
+        prev[kn, 1] = 2.0 * pos[kn, 1] - (cy + ey)
+        prev[kn, 2] = 2.0 * pos[kn, 2] - (cz + ez)
+
+
+@njit(cache=True, nogil=True)
+def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, progress, fold):
+    """A walk's double support: a planted foot behind its hip comes up on its toes - as far as
+    it must (and a little more, HEEL_SLACK) for the hip to go on along the leading leg's arc
+    next frame rather than be held back by a straight leg (there is no foot to roll over), and
+    the foot that steps next (``next_foot``) at least ``progress`` (0-1, of the double support
+    gone) of HEEL_RISE leg lengths, so the knee is bending when it lifts (a straight leg swung
+    forward would push the hip on like a rod); its knee bends forwards as it comes up. That
+    rise is no faster than brings the knee ``fold`` metres further forward this frame: near
+    straight, a leg a centimetre shorter has its knee 7 cm forward (setting off from standing,
+    the heel came up 14 cm in a frame and the knee flew forwards at 9 m/s - a blow to anyone
+    close). It stays where it is along the ground: it is still planted."""
+    bx, bz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
+    for f in range(2):
+        i = nd[L_FOOT + f]
+        o = nd[L_FOOT + 1 - f]
+        if not (flags[i] & NODE_LOCKED and flags[o] & NODE_LOCKED):
+            return
+        h = nd[L_HIP + f]
+        hx = 2.0 * pos[h, 0] - prev[h, 0]  # where the hip will be next frame
+        hy = 2.0 * pos[h, 1] - prev[h, 1]
+        hz = 2.0 * pos[h, 2] - prev[h, 2]
+        ex = hx - pos[i, 0]
+        ez = hz - pos[i, 2]
+        if ex * dx + ez * dz <= 0.0:
+            continue  # the leading foot
+        reach = HEEL_SLACK * legs
+        room = heel_room(pos[i, 1], radius[i], legs)
+        y = hy - math.sqrt(max(0.0, reach * reach - ex * ex - ez * ez))
+        kn = nd[L_KNEE + f]
+        thigh, shin = leg_parts(pos, h, kn, i)
+        if f == next_foot:
+            pre = pos[i, 1] + room - (1.0 - PRESWING * progress) * HEEL_RISE * legs
+            # the knee's reach forward (a leg of two halves) now, and a leg short enough for it
+            # to be ``fold`` further forward: the foot comes up no higher than that leg reaches
+            half = 0.5 * (thigh + shin)
+            ey = hy - pos[i, 1]
+            now = math.sqrt(ex * ex + ey * ey + ez * ez)
+            bent = math.sqrt(max(0.0, half * half - 0.25 * now * now)) + fold
+            short2 = 4.0 * max(0.0, half * half - bent * bent)
+            if short2 > ex * ex + ez * ez:
+                pre = min(pre, hy - math.sqrt(short2 - ex * ex - ez * ez))
+            # and no more than HEEL_STEP a frame (setting off into a brisk walk, a child's heel
+            # came up 6 cm in a frame and its shin was squeezed 4 cm)
+            pre = min(pre, pos[i, 1] + HEEL_STEP * legs)
+            y = max(y, pre)
+        if y > pos[i, 1]:
+            y = min(y, pos[i, 1] + room)
+            lock_pos[i, 1] = y
+            pos[i, 1] = y
+            prev[i, 1] = y
+            bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz)
+
+
+@njit(cache=True, nogil=True)
+def lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, walking, dt):
+    """A planted foot up on its toes comes down again (HEEL_DROP) unless the walk's double
+    support keeps it up: standing still, and once the walk stops, both heels are down."""
+    for f in range(2):
+        i = nd[L_FOOT + f]
+        o = nd[L_FOOT + 1 - f]
+        if not flags[i] & NODE_LOCKED or pos[i, 1] <= radius[i]:
+            continue
+        if walking and flags[o] & NODE_LOCKED:
+            continue  # lift_heels decides
+        if pos[i, 1] > radius[i] + HEEL_RISE * legs:
+            continue  # planted on something, not up on its toes
+        y = max(radius[i], pos[i, 1] - HEEL_DROP * legs * dt)
+        lock_pos[i, 1] = y
+        pos[i, 1] = y
+        prev[i, 1] = y
+
+
+@njit(cache=True, nogil=True)
 def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t_left, dt):
     """Where a gait step of foot ``f`` should come down (x, z), ``t_left`` s before it lands.
 
@@ -170,7 +333,7 @@ def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t
     return tx, tz
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, fastest,
                gravity, dt):
     """In-flight guidance of a swinging foot (a step's or a kick's), once a frame.
@@ -211,7 +374,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
                 prev[i, q] += k * e
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, fastest, gravity, dt):
     """Set a flying foot's velocity (through ``prev``) to land in reach (see guide_foot)."""
     h = nd[L_HIP + f]
@@ -231,6 +394,8 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
     hx = pos[h, 0] + (pos[p, 0] - prev[p, 0]) / dt * t
     hz = pos[h, 2] + (pos[p, 2] - prev[p, 2]) / dt * t
     hh = pos[h, 1] - ly
+    if not aim:
+        hh -= KICK_DIP * legs  # a kick: the support knee gives (posture's KICK_STANCE), the hip lower
     if aim and o >= 0:
         # the hip then rides the planted leg's arc (systems/control/posture.py): WALK_HEIGHT leg
         # lengths from that foot - lower than now if it will have passed over it
@@ -260,7 +425,7 @@ def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs
     prev[i, 2] = pos[i, 2] - ((lz - pos[i, 2]) / t - 0.5 * k_arc * gravity[2] * t) * dt
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def control_gait(args, n_chars, gravity, dt):
     """Guide, plant, unlock and launch feet for every standing character (``args``:
     ``store.columns(GaitColumns, nodes, characters)``)."""
@@ -308,14 +473,15 @@ def control_gait(args, n_chars, gravity, dt):
                     ex = pos[o, 0] - pos[ho, 0]
                     ez = pos[o, 2] - pos[ho, 2]
                     reach_o = math.sqrt(ex * ex + ez * ez + (pos[o, 1] - pos[ho, 1]) ** 2)
-                    ahead = max(0.0, ex * dx + ez * dz)  # a leg straight ahead is vaulting, not left behind
-                    away = math.sqrt(max(0.0, ex * ex + ez * ez - ahead * ahead))
-                    if away > HURRY_AWAY * legs and reach_o > HURRY * legs:
+                    along = ex * dx + ez * dz  # a leg straight ahead is vaulting, not left behind
+                    away = math.sqrt(max(0.0, ex * ex + ez * ez - along * along))
+                    if (away > HURRY_AWAY * legs or -along > HURRY_BEHIND * legs) and reach_o > HURRY * legs:
                         move_time[i] = HURRY_TIME
                 tx, tz = landing_target(pos, prev, nd, f, o if flags[o] & NODE_LOCKED else -1, dx, dz, moving,
                                         v, step, legs, move_time[i], dt)
-                guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f,
-                           o if flags[o] & NODE_LOCKED else -1, tx, tz, k_arc, legs, fastest, gravity, dt)
+                o_planted = o if flags[o] & NODE_LOCKED else -1
+                guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o_planted, tx, tz,
+                           k_arc, legs, fastest, gravity, dt)
         # plant: a foot on the ground that is not mid-step locks in place; a planted
         # foot whose leg is pulled past its length slips (static friction gives way)
         for f in range(2):
@@ -345,6 +511,13 @@ def control_gait(args, n_chars, gravity, dt):
                 for k in range(3):
                     prev[i, k] = pos[i, k]
                     lock_pos[i, k] = pos[i, k]  # held where it stands (not where it last stood)
+        lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, moving and not run, dt)
+        if moving and not run:
+            # how much of the double support is over (the leading foot's timer runs it out)
+            ds = t_step - t_fly
+            progress = 1.0 - max(swing[c, 0], swing[c, 1]) / ds if ds > 1e-6 else 1.0
+            lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, 1 - last_step[c],
+                       clamp(progress, 0.0, 1.0), max(KNEE_FOLD * math.sqrt(s), KNEE_FOLD_PACE * v) * dt)
         if not run and (swinging(flags, move_time, nd[L_FOOT]) or swinging(flags, move_time, nd[L_FOOT + 1])):
             continue  # walking (or standing), one foot at a time
         # one step per step period, unless a leg is stretched (below)
@@ -373,15 +546,25 @@ def control_gait(args, n_chars, gravity, dt):
             ex = pos[i, 0] - pos[h, 0]
             ez = pos[i, 2] - pos[h, 2]
             ey = pos[i, 1] - pos[h, 1]
+            if moving and flags[o] & NODE_LOCKED:
+                ey += heel_room(pos[i, 1], radius[i], legs)  # not stretched while its heel can rise
             # a leg behind its hip close to straight must step whatever else: a locked
             # foot at the end of a straight leg would hold the hip back like a rope
             stretch = math.sqrt(ex * ex + ey * ey + ez * ez) - STRETCH * legs
             if moving:
-                if ex * dx + ez * dz > -MOST_AHEAD * legs:
+                if run or ex * dx + ez * dz > -MOST_AHEAD * legs:
                     # a straight leg ahead, or not far behind, is the stance leg
                     # vaulting: the pelvis rides down its arc until the step is due
                     stretch = -1.0
                 need = legs if f != last_step[c] and due else -1.0
+                if (not run and flags[o] & NODE_LOCKED and ex * dx + ez * dz < 0.0
+                        and pos[i, 1] < radius[i] + SET_OFF * HEEL_RISE * legs):
+                    # setting off (or stepping again from a foot flat on the ground): the heel
+                    # comes up first (lift_heels), so the knee is bending when the foot lifts
+                    need = -1.0
+            elif ex * ex + ez * ez < (STANCE_SLACK * s) ** 2:
+                stretch = -1.0  # standing on a straight leg under its hip: carried, not stretched
+                need = -1.0
             elif due:
                 need = math.sqrt(ex * ex + ez * ez) - STANCE_SLACK * s
             else:
@@ -432,6 +615,11 @@ def control_gait(args, n_chars, gravity, dt):
         for k in range(3):
             if k != 1:
                 prev[kn, k] -= KNEE_LEAD * ((pos[i, k] - prev[i, k]) - (pos[kn, k] - prev[kn, k]))
+        bx, bz = forward_xz(pos, nd[L_HIP], nd[L_HIP + 1])
+        if not moving or (not run and pos[i, 1] < radius[i] + 0.25 * HEEL_RISE * legs):
+            # a step from standing (or from a heel that did not come up first): the straight
+            # leg folds at once, else it pushes the hip up and the body pitches or hops
+            lead_knee(pos, prev, nd[L_HIP + best], kn, i, bx, bz, LEAD_FOLD * math.sqrt(s) * dt)
         swing[c, best] = t_step
         last_step[c] = best
         steps[c] += 1

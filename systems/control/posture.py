@@ -41,6 +41,7 @@ from twig_ecs.kernelmath import (
     R_HIP,
     R_KNEE,
     R_SHOULDER,
+    REACH,
     RISE,
     SIT,
     SPINE,
@@ -51,20 +52,36 @@ from twig_ecs.kernelmath import (
     yaw_error,
 )
 from twig_ecs.step import StepContext
-from twig_ecs.store import NODE_LOCKED, columns
+from twig_ecs.store import MOVE_GAIT_ARC, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
-from twig_ecs.systems.control.gait import DOWN, LEAD, WALK_HEIGHT, step_timing
+from twig_ecs.systems.control.gait import DOWN, LEAD, heel_room, step_timing
 
 HEIGHT_GAIN, HEIGHT_DAMP = 120.0, 22.0  # 1/s^2, 1/s: pelvis height
 BALANCE_GAIN, BALANCE_DAMP = 40.0, 12.0  # pelvis over the feet when standing still
-WALK_GAIN = 15.0  # 1/s: pelvis velocity towards the walk vector
+WALK_GAIN = 9.0  # 1/s: pelvis velocity towards the walk vector
+KEEP_PACE_GAIN = 30.0  # 1/s: ... along the walk, while slower than it but already going
+KEEP_PACE_FROM = 0.7  # ... at least this share of the pace its way, at a brisk walk:
+KEEP_PACE_FROUDE = 0.12  # above this Froude number (slower, the landings brake it by 2% or less)
+KEEP_PACE_MOST = 2.5  # m/s^2: the most that extra push adds (it makes up a few per cent, no sprint)
 UPRIGHT_GAIN, UPRIGHT_DAMP = 80.0, 14.0  # shoulders over the pelvis
 YAW_GAIN, YAW_DAMP = 900.0, 60.0  # rad/s^2 per rad, per rad/s
 LEAN = 0.06  # s: the shoulders lead the pelvis by LEAN * walk velocity (at 1.75 m tall; by scale)
 LANDING = 0.4  # of a step's time in the air: the pelvis lowers for the landing over its end
+LANDING_REACH = 0.98  # of the leg's length: ... so that the landing leg reaches the ground this straight
+WALK_LIFT = 0.5  # g: the most the pelvis is pushed up (beyond its weight) at a walk ...
+WALK_LIFT_FROUDE = 2.0  # ... and this much more per Froude number (the arcs turn up faster at speed)
+KNEE_SINK = 2.0  # m/s: the fastest a sinking pelvis folds a planted knee forwards ...
+SINK_LEAST = 0.03  # of the leg's length: ... reckoned from at least this much knee bend
+GET_UP = 0.5  # standing heights per second: the fastest a pelvis below GET_UP_TO rises ...
+GET_UP_TO = 0.8  # ... of its standing height (from a fall at 40%: ~0.9 s to 90%; a run dips to 0.85)
+KICK_STANCE = 0.96  # of standing height: the pelvis while a foot swings a kick (the support knee bent)
+CARRY_OVER = 0.02  # of the leg's length: the pelvis aims this far above where straight planted legs
+# hold it, so they carry it (taut: straight knees) rather than the height control (the arms' weight
+# alone sags it ~1 cm)
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
 WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
-HELD = 0.99  # of the leg's length: a planted leg behind this straight slows the walk, to 0 when straight
+HELD = 0.6  # of the leg's length: a planted foot behind its hip this far (along the ground) slows
+HELD_SPAN = 0.1  # the walk, to a stop this much further (a straight trailing leg, heel up, at full stretch)
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_PITCH = math.radians(25.0)  # the most the upright control leans the torso from the vertical
 # a righting reflex: the upright gain grows by RIGHTING times itself over the first 10 degrees
@@ -107,6 +124,7 @@ class PostureColumns(NamedTuple):
     radius: np.ndarray
     flags: np.ndarray
     move_time: np.ndarray
+    move_gravity: np.ndarray
     nodes: np.ndarray  # characters' node rows by role
     mode: np.ndarray
     mode_time: np.ndarray
@@ -122,7 +140,57 @@ class PostureColumns(NamedTuple):
 
 
 # fmt: off
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
+    """(pelvis height, its rate of change, the carrying leg's direction from foot to hip x, y,
+    z) at which the planted legs, straight, hold the hips:
+    the lowest of their arcs over their feet (1e9 with no foot planted). Walking, a planted
+    foot behind its hip while the other is down too (double support) reaches HEEL_RISE leg
+    lengths higher (its heel comes up: the gait lifts it), so the leading leg carries the
+    hips. The rate is how fast that height changes as the pelvis moves (``vpx``, ``vpz``):
+    fed forward, so the pelvis keeps to the arc rather than lag above it."""
+    top = 1e9
+    rate = 0.0
+    ux, uy, uz = 0.0, 1.0, 0.0
+    both = flags[nd[L_FOOT]] & NODE_LOCKED and flags[nd[R_FOOT]] & NODE_LOCKED
+    for f in range(2):
+        i = nd[L_FOOT + f]
+        if flags[i] & NODE_LOCKED:
+            h = nd[L_HIP + f]
+            ex = pos[h, 0] - pos[i, 0]
+            ez = pos[h, 2] - pos[i, 2]
+            rise = math.sqrt(max(1e-6, legs * legs - ex * ex - ez * ez))
+            y = pos[i, 1] + rise + pos[nd[PELVIS], 1] - pos[h, 1]  # the pelvis, with that hip there
+            if walking and both and ex * wx + ez * wz > 0.0:
+                y += heel_room(pos[i, 1], radius[i], legs)
+            if y < top:
+                top = y
+                rate = -(ex * vpx + ez * vpz) / rise
+                ux, uy, uz = ex / legs, rise / legs, ez / legs
+    return top, rate, ux, uy, uz
+
+
+@njit(cache=True, nogil=True)
+def sink_speed(pos, flags, nd, legs):
+    """How fast (m/s) a standing pelvis may go down: no faster than folds the straighter planted
+    leg's knee forwards at KNEE_SINK m/s (a leg of two halves ``legs`` long: near straight, the
+    knee moves out far faster than the hip comes down; at least SINK_LEAST of a bend)."""
+    most = 1e9
+    for f in range(2):
+        i = nd[L_FOOT + f]
+        if not flags[i] & NODE_LOCKED:
+            continue
+        h = nd[L_HIP + f]
+        dx, dy, dz = pos[h, 0] - pos[i, 0], pos[h, 1] - pos[i, 1], pos[h, 2] - pos[i, 2]
+        d = math.sqrt(dx * dx + dy * dy + dz * dz)
+        half = 0.5 * legs
+        e = max(math.sqrt(max(0.0, half * half - 0.25 * d * d)), SINK_LEAST * legs)
+        # d = 2 sqrt(half^2 - e^2): the hip comes down d' = 4 e e' / d for a knee moving out at e'
+        most = min(most, KNEE_SINK * 4.0 * e / max(d, 1e-6))
+    return most
+
+
+@njit(cache=True, nogil=True)
 def control_posture(args, n_chars, gravity, dt, holding):
     """Add posture accelerations for every character (see the module docstring; ``args``:
     ``store.columns(PostureColumns, nodes, characters)``)."""
@@ -165,6 +233,8 @@ def control_posture(args, n_chars, gravity, dt, holding):
         step = 0.0
         t_fly = 1.0
         target_vy = 0.0
+        lift_most = MAX_ACC
+        push_x, push_y, push_z = 0.0, 0.0, 0.0
         if moving and g > 1e-6:
             # the gait decides the top speed per body size (kernelmath.walk_speed); the
             # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
@@ -173,7 +243,7 @@ def control_posture(args, n_chars, gravity, dt, holding):
             v, step, _, t_fly = step_timing(v, leg_length[c], g)
             turn = yaw_error(fx, fz, wx / sp, wz / sp)
             v *= TURN_SLOW + (1.0 - TURN_SLOW) * min(1.0, 1.0 + math.cos(turn))  # slower past 90 deg
-            # a planted leg stretched out behind or to the side holds the pelvis back: it waits
+            # a planted foot left far behind or to the side holds the pelvis back: it waits
             # for the step rather than run away from its support (a crowd, a sharp turn)
             for f in range(2):
                 i = nd[L_FOOT + f]
@@ -181,9 +251,9 @@ def control_posture(args, n_chars, gravity, dt, holding):
                     h = nd[L_HIP + f]
                     ex = pos[i, 0] - pos[h, 0]
                     ez = pos[i, 2] - pos[h, 2]
-                    d = math.sqrt(ex * ex + ez * ez + (pos[i, 1] - pos[h, 1]) ** 2)
-                    if d > HELD * leg_length[c] and ex * wx + ez * wz < 0.0:
-                        v *= max(0.1, (leg_length[c] - d) / ((1.0 - HELD) * leg_length[c]))
+                    d = math.sqrt(ex * ex + ez * ez) / leg_length[c]
+                    if d > HELD and ex * wx + ez * wz < 0.0:
+                        v *= max(0.1, 1.0 - (d - HELD) / HELD_SPAN)
             wx *= v / sp
             wz *= v / sp
 
@@ -204,46 +274,91 @@ def control_posture(args, n_chars, gravity, dt, holding):
             f = min(1.0, mode_time[c] / RISE_TIME)
             target_y = seat[c, 1] + f * (stand_height[c] - seat[c, 1])
         else:
+            # standing or walking, the pelvis is carried by straight planted legs (an inverted
+            # pendulum: highest over the foot, lowest with the feet spread - the walk's bob):
+            # it aims a little above where they hold it (CARRY_OVER), so they stay taut and
+            # straight and hold it up, rather than the height control (a half squat reads as
+            # sneaking). In a walk's double support the trailing heel rises (the gait lifts
+            # it), so the leading leg carries it
             target_y = stand_height[c]
-            if step > 0.0:
-                # walking, the hip rides on nearly straight legs (an inverted pendulum):
-                # as high as the planted legs, WALK_HEIGHT of their length, hold it over
-                # their feet - highest when it passes over the foot, lowest with the
-                # feet spread (the bob)
-                reach = WALK_HEIGHT * leg_length[c]
-                top = 1e9
-                top_rate = 0.0
+            walking = step > 0.0
+            top, top_rate, ux, uy, uz = carried_height(pos, flags, radius, nd, leg_length[c], vpx, vpz,
+                                                       wx, wz, walking)
+            if top < 1e8:
+                target_y = min(target_y, top)
+                # coming down: low enough that a swinging foot reaches the ground LEAD steps
+                # ahead (else it hangs in the air, or the landing foot drags the hip), and a
+                # foot knocked off its arc (neither planted nor flying) where it is: straight
+                # legs hold the hips too high for a foot out to the side to reach the ground
+                reach = LANDING_REACH * leg_length[c]
                 for f in range(2):
                     i = nd[L_FOOT + f]
                     if flags[i] & NODE_LOCKED:
-                        h = nd[L_HIP + f]
-                        x2 = (pos[h, 0] - pos[i, 0]) ** 2 + (pos[h, 2] - pos[i, 2]) ** 2
-                        rise = math.sqrt(max(1e-6, reach * reach - x2))
-                        if pos[i, 1] + rise < top:
-                            top = pos[i, 1] + rise
-                            # how fast that height changes as the hip moves over the foot:
-                            # fed forward, so the pelvis keeps to the arc rather than lag
-                            # above it (and stretch the trailing leg early)
-                            top_rate = -((pos[h, 0] - pos[i, 0]) * vpx + (pos[h, 2] - pos[i, 2]) * vpz) / rise
-                    elif 0.0 < move_time[i] < LANDING * t_fly:
-                        # coming down: low enough that the foot lands within the leg's
-                        # reach, LEAD steps ahead (else the landing foot drags the hip)
+                        continue
+                    if flags[i] & NODE_MOVING and move_time[i] > 0.0:
+                        if cols.move_gravity[i] != MOVE_GAIT_ARC:
+                            # a kick: the standing knee gives, as a person's does, so the
+                            # swing reaches out (and the kick's own aim stays in reach)
+                            target_y = min(target_y, KICK_STANCE * stand_height[c])
+                        if not (walking and move_time[i] < LANDING * t_fly):
+                            continue
                         ahead = LEAD * step
-                        landing = radius[i] + math.sqrt(max(0.0, reach * reach - ahead * ahead))
-                        if landing < top:
-                            top = landing
-                            top_rate = 0.0
-                if top < 1e8:
-                    target_y = max(WALK_LOWEST * stand_height[c], top + pos[p, 1] - pos[nd[L_HIP], 1])
+                    else:
+                        h = nd[L_HIP + f]
+                        ahead = math.sqrt((pos[i, 0] - pos[h, 0]) ** 2 + (pos[i, 2] - pos[h, 2]) ** 2)
+                    landing = radius[i] + math.sqrt(max(0.0, reach * reach - ahead * ahead))
+                    landing += pos[p, 1] - pos[nd[L_HIP + f], 1]
+                    if landing < target_y:
+                        target_y = landing
+                        top_rate = 0.0
+                if walking:
+                    target_y = max(WALK_LOWEST * stand_height[c], target_y)
                     target_vy = top_rate
+                    # the hip's fall along the trailing leg's arc turns into a rise along the
+                    # leading one's gently (the landing knee gives a little, and straightens
+                    # over the stance): pushed up a taut leg faster, the body is thrown on
+                    lift_most = (WALK_LIFT + WALK_LIFT_FROUDE * v * v / (g * leg_length[c])) * g
+                    # the carrying leg pushes its hip away from its foot, along the leg (a push
+                    # straight up would also drive the hip along the leg's arc: forwards before
+                    # it passes over the foot, back after - a surge and a stall every step)
+                    carry = HEIGHT_GAIN * CARRY_OVER * leg_length[c]
+                    push_x, push_y, push_z = carry * ux, carry * uy, carry * uz
+                else:
+                    target_y += CARRY_OVER * leg_length[c]
+            if cols.arm_mode[c, 0] == REACH or cols.arm_mode[c, 1] == REACH:
+                # reaching for something (a hug's arms round a partner, a grab), the knees give
+                # a little, as they do for a kick
+                target_y = min(target_y, KICK_STANCE * stand_height[c])
             target_y -= crouch[c]  # stooping to reach something low
-        ay = HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy)
+        ay = min(HEIGHT_GAIN * (target_y - pos[p, 1]) - HEIGHT_DAMP * (vpy - target_vy), lift_most)
+        if mode[c] == STAND and not moving:
+            # sinking from straight legs (a stoop, a crouch), gently at first: near straight,
+            # a pelvis going down puts the knees forwards many times as fast - they shot
+            # into whoever stood close (two stooping to one doll knocked knees, 5 J)
+            ay = max(ay, HEIGHT_DAMP * (-sink_speed(pos, flags, nd, leg_length[c]) - vpy))
+        if mode[c] == STAND and pos[p, 1] < GET_UP_TO * stand_height[c]:
+            # getting up from low (a fall, a deep stoop): the pelvis rises at most GET_UP
+            # standing heights a second - over most of a second, not a pop (before: from the
+            # ground to 90% of standing height in 0.2 s)
+            ay = min(ay, HEIGHT_DAMP * (GET_UP * stand_height[c] - vpy))
         if mode[c] == SIT:
             ax = BALANCE_GAIN * (seat[c, 0] - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (seat[c, 2] - pos[p, 2]) - BALANCE_DAMP * vpz
         elif moving and mode[c] == STAND:
             ax = WALK_GAIN * (wx - vpx)
             az = WALK_GAIN * (wz - vpz)
+            # cruising a little behind the pace (each landing brakes the hip), the stance leg
+            # pushes on harder, so the pace is reached; setting off, slowing, stopping and
+            # turning stay as gentle as they were (a stiffer response there feeds the
+            # to-and-fro of two approachers matching each other's steps)
+            sp = math.sqrt(wx * wx + wz * wz)
+            along = (vpx * wx + vpz * wz) / max(sp, 1e-9)
+            lag = sp - along
+            brisk = sp * sp > KEEP_PACE_FROUDE * g * leg_length[c] and t_fly * sp < step  # a walk, not a run
+            if 0.0 < lag and along > KEEP_PACE_FROM * sp and brisk:
+                more = min((KEEP_PACE_GAIN - WALK_GAIN) * lag, KEEP_PACE_MOST)
+                ax += more * wx / max(sp, 1e-9)
+                az += more * wz / max(sp, 1e-9)
             # no lurches: a person changes pace at a fraction of g
             most = WALK_ACC * g
             a = math.sqrt(ax * ax + az * az)
@@ -253,9 +368,9 @@ def control_posture(args, n_chars, gravity, dt, holding):
         else:
             ax = BALANCE_GAIN * (feet_x - pos[p, 0]) - BALANCE_DAMP * vpx
             az = BALANCE_GAIN * (feet_z - pos[p, 2]) - BALANCE_DAMP * vpz
-        ax = clamp(ax, -MAX_ACC, MAX_ACC)
-        ay = clamp(ay, -MAX_ACC, MAX_ACC)
-        az = clamp(az, -MAX_ACC, MAX_ACC)
+        ax = clamp(ax + push_x, -MAX_ACC, MAX_ACC)
+        ay = clamp(ay + push_y, -MAX_ACC, MAX_ACC)
+        az = clamp(az + push_z, -MAX_ACC, MAX_ACC)
         # a torso already bent further than the upright control leans it (the hips held
         # back: legs caught on a bar, in a crush) is not pushed on further the way it
         # leans: pushing the chest after the walk folds the body over the held hips
