@@ -23,6 +23,7 @@ NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
 NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
 NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) until it ends
 NODE_KICK = 32  # the move is a kick's swing: it drives on through a loose ball it meets (collide)
+NODE_CARRIED = 64  # of a loose thing a hand holds: it supports nothing (no foot plants on a carried doll)
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer
@@ -625,6 +626,12 @@ class PhysicsState:
                                 (ROLES.index("r_hand"), ROLES.index("r_elbow"))):  # fmt: skip
                 elbow_of[int(ch.nodes[c, hand])] = int(ch.nodes[c, elbow])
         self.held = self._loose_held(grabs)
+        # what a hand carries is no ground to stand on: a running child's knee lifts its foot
+        # into the doll it carries, and a foot planted there stayed nailed in mid-air as the
+        # doll swung on (collide marks no support on a carried thing)
+        n.flags[: n.count] &= ~np.uint32(NODE_CARRIED)
+        for first, end, _, _ in self.held:
+            n.flags[first:end] |= np.uint32(NODE_CARRIED)
         self.gentle = self._gentle_pairs(grabs)
         held_pairs = [(int(lk.a[g]), int(lk.b[g])) for g in grabs]
         carried = {(int(lk.a[g]), int(lk.b[g])) for g in grabs if int(lk.a[g]) in elbow_of}

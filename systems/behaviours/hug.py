@@ -44,6 +44,7 @@ from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.components import Character
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.kernelmath import (
+    CARRY,
     GAZE_NODE,
     HANG,
     HEAD,
@@ -551,7 +552,11 @@ class Hug(Behavior):
             if not len(moving):
                 return
             movers = crows[moving]
-            ch.arm_mode[movers] = HANG  # the arms swing as it walks: they rise as the wrap begins
+            # the arms swing as it walks: they rise as the wrap begins. A hand that carries
+            # something (a doll, the cradle's pose) keeps it held up: hung at a run, the doll
+            # swung between the 1.05 m child's legs, a foot planted on it and the child fell
+            arms = ch.arm_mode[movers]
+            ch.arm_mode[movers] = np.where(arms == CARRY, CARRY, HANG)
             ch.walk[movers] = walk  # (an arrived one stops: its walk is nought)
             for goal, update, unless in memory:
                 goal.memory.update(update)
@@ -662,7 +667,7 @@ class Hug(Behavior):
         if gap <= wrap_at:
             goal.memory["phase"], goal.memory["since"] = "wrap", character.scene.time
             return
-        character.pose("hang")  # the arms swing as it walks: they rise as the wrap begins
+        swing_arms(character)  # the arms swing as it walks: they rise as the wrap begins
         pace = own_pace(character, bool(goal.params.get("run", False)))
         if gap < DOCK_FROM:
             # the last steps, straight in: v = sqrt(2 a d) stops it as the torsos meet
@@ -805,6 +810,15 @@ class Hug(Behavior):
         character.pose("hang")
         character.stop()
         character.look_at(None)
+
+
+def swing_arms(character) -> None:
+    """Let the arms hang and swing as the character walks, but a hand that carries something
+    (the cradle's ``carry`` pose) keeps it held up in front."""
+    modes = character.scene.state.characters.arm_mode[character.character_row]
+    for hand, h in (("left", 0), ("right", 1)):
+        if modes[h] != CARRY:
+            character.pose("hang", hand=hand)
 
 
 def own_pace(character, run: bool = False) -> float:

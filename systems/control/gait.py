@@ -36,6 +36,7 @@ from twig_ecs.kernelmath import (
     R_HAND,
     RISE,
     STAND,
+    WALK_FROUDE_MAX,
     clamp,
     forward_xz,
     step_length,
@@ -93,6 +94,9 @@ FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
+CATCH = 0.88  # of standing height: a pelvis sinking below it at a run is caught by the swinging foot
+RUN_PUSH = 0.4  # of the leg's length: running, a stance foot this far behind its hip pushes off
+RUN_RAMP = 0.3  # sqrt(g L): a run's steps are timed for at most the pelvis's pace plus this
 ARM_SWING = 0.6  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -450,7 +454,16 @@ def control_gait(args, n_chars, gravity, dt):
         wx = walk[c, 0]
         wz = walk[c, 2]
         speed = math.sqrt(wx * wx + wz * wz)
-        v, step, t_step, t_fly = step_timing(speed, legs, g)
+        timed = speed
+        if speed > 1e-9:
+            # a run from a standstill sets off in walking steps, quickening as the pelvis
+            # gathers pace: a run's long flight as the first step from standing left the body
+            # nothing to stand on, and the 1.05 m child running home fell into a split
+            p = nd[PELVIS]
+            along = ((pos[p, 0] - prev[p, 0]) * wx + (pos[p, 2] - prev[p, 2]) * wz) / (speed * dt)
+            natural = math.sqrt(g * legs)
+            timed = min(speed, max(math.sqrt(WALK_FROUDE_MAX) * natural, along + RUN_RAMP * natural))
+        v, step, t_step, t_fly = step_timing(timed, legs, g)
         s = scale[c]
         moving = v > 0.01
         dx = wx / speed if moving else 0.0
@@ -466,6 +479,14 @@ def control_gait(args, n_chars, gravity, dt):
             if move_time[i] > 0.0 and not flags[i] & NODE_LOCKED:
                 o = nd[L_FOOT + 1 - f]
                 ho = nd[L_HIP + 1 - f]
+                pel = nd[PELVIS]
+                if (run and move_gravity[i] == MOVE_GAIT_ARC and flags[o] & NODE_LOCKED
+                        and move_time[i] > HURRY_TIME and pos[pel, 1] < CATCH * cols.stand_height[c]
+                        and pos[pel, 1] < prev[pel, 1]):
+                    # running, the body sinking over a planted foot left behind: this foot
+                    # comes down now and catches it (it hung at the end of its arc, ahead,
+                    # while the 1.05 m child sank into a split)
+                    move_time[i] = HURRY_TIME
                 if (move_gravity[i] == MOVE_GAIT_ARC and flags[o] & NODE_LOCKED and move_time[i] > HURRY_TIME
                         and not run):  # running, the planted foot pushes off instead
                     # the planted leg nearly straight behind its hip: this step comes down
@@ -526,6 +547,7 @@ def control_gait(args, n_chars, gravity, dt):
         # is over; standing, the one furthest from where it belongs, if any is off
         best = -1
         best_need = 0.0
+        best_stray = False
         half = 0.5 * math.sqrt((pos[nd[L_HIP], 0] - pos[nd[L_HIP + 1], 0]) ** 2
                                + (pos[nd[L_HIP], 2] - pos[nd[L_HIP + 1], 2]) ** 2)
         for f in range(2):
@@ -557,6 +579,11 @@ def control_gait(args, n_chars, gravity, dt):
                     # vaulting: the pelvis rides down its arc until the step is due
                     stretch = -1.0
                 need = legs if f != last_step[c] and due else -1.0
+                if run and ex * dx + ez * dz < -RUN_PUSH * legs and not flags[o] & NODE_LOCKED:
+                    # running, a stance foot this far behind its hip pushes off now, whatever
+                    # the step clock says: held on, the other foot landed far ahead and the
+                    # 1.05 m child sank into a split between them
+                    need = legs
                 if (not run and flags[o] & NODE_LOCKED and ex * dx + ez * dz < 0.0
                         and pos[i, 1] < radius[i] + SET_OFF * HEEL_RISE * legs):
                     # setting off (or stepping again from a foot flat on the ground): the heel
@@ -581,6 +608,7 @@ def control_gait(args, n_chars, gravity, dt):
             if need > 0.0 and (best < 0 or need > best_need):
                 best = f
                 best_need = need
+                best_stray = stray
         if best < 0:
             continue
         i = nd[L_FOOT + best]
@@ -603,12 +631,16 @@ def control_gait(args, n_chars, gravity, dt):
         ty = radius[i]
         flags[i] &= ~np.uint32(NODE_LOCKED | NODE_IN_CONTACT)
         flags[i] |= NODE_LOCK_ON_CONTACT | NODE_MOVING
-        move_time[i] = t_fly
+        # a stray foot (its flight over, not down) comes straight down: flown again for a whole
+        # run's flight, the 1.05 m child's foot hung 0.65 s in the air while the body sank
+        # into a split over the other, planted far behind
+        fly = min(t_fly, HURRY_TIME) if best_stray else t_fly
+        move_time[i] = fly
         move_gravity[i] = MOVE_GAIT_ARC
         # ballistic: v0 = (target - p)/T - g' T / 2 lands on target at T under the arc's gravity
-        prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / t_fly - 0.5 * k_arc * gravity[0] * t_fly) * dt
-        prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / t_fly - 0.5 * k_arc * gravity[1] * t_fly) * dt
-        prev[i, 2] = pos[i, 2] - ((tz - pos[i, 2]) / t_fly - 0.5 * k_arc * gravity[2] * t_fly) * dt
+        prev[i, 0] = pos[i, 0] - ((tx - pos[i, 0]) / fly - 0.5 * k_arc * gravity[0] * fly) * dt
+        prev[i, 1] = pos[i, 1] - ((ty - pos[i, 1]) / fly - 0.5 * k_arc * gravity[1] * fly) * dt
+        prev[i, 2] = pos[i, 2] - ((tz - pos[i, 2]) / fly - 0.5 * k_arc * gravity[2] * fly) * dt
         # the knee leads the swing: a straight leg whose foot sets off towards the hip
         # would push the hip (and the body) ahead like a rod; bent first, it folds
         kn = nd[L_KNEE + best]

@@ -20,7 +20,15 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.step import StepContext
-from twig_ecs.store import NODE_IN_CONTACT, NODE_KICK, NODE_LOCKED, NODE_MOVING, NODE_SPHERE, columns
+from twig_ecs.store import (
+    NODE_CARRIED,
+    NODE_IN_CONTACT,
+    NODE_KICK,
+    NODE_LOCKED,
+    NODE_MOVING,
+    NODE_SPHERE,
+    columns,
+)
 from twig_ecs.system import System
 from twig_ecs.systems.physics.constrain import (
     SETTLE_PASSES,
@@ -586,12 +594,13 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         # a contact pushing a capsule upwards supports it: high (ground) damping, and a foot
         # may plant there. Only another body's: a knee resting on its own other thigh, or one
         # shin crossed over the other in a turn, marked the foot as standing on something and
-        # it planted in mid-air
+        # it planted in mid-air. Nor a thing a hand carries (NODE_CARRIED): it swings with its
+        # carrier, and a foot planted on it was left standing on air
         apart = body[i] != body[j]
-        if ny > 0.5 and apart:
+        if ny > 0.5 and apart and not (flags[c] | flags[d]) & NODE_CARRIED:
             flags[a] |= NODE_IN_CONTACT
             flags[b] |= NODE_IN_CONTACT
-        elif ny < -0.5 and apart:
+        elif ny < -0.5 and apart and not (flags[a] | flags[b]) & NODE_CARRIED:
             flags[c] |= NODE_IN_CONTACT
             flags[d] |= NODE_IN_CONTACT
     return worst
