@@ -95,7 +95,7 @@ LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
 CATCH = 0.88  # of standing height: a pelvis sinking below it at a run is caught by the swinging foot
-RUN_PUSH = 0.4  # of the leg's length: running, a stance foot this far behind its hip pushes off
+RUN_PUSH = 0.55  # of the leg's length: running, a stance foot this far behind its hip pushes off
 RUN_RAMP = 0.3  # sqrt(g L): a run's steps are timed for at most the pelvis's pace plus this
 ARM_SWING = 0.6  # m/s of hand velocity per m/s of walking, given at each step
 

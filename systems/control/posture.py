@@ -46,6 +46,7 @@ from twig_ecs.kernelmath import (
     SIT,
     SPINE,
     STAND,
+    WALK_FROUDE_MAX,
     clamp,
     forward_xz,
     walk_speed,
@@ -80,7 +81,7 @@ CARRY_OVER = 0.02  # of the leg's length: the pelvis aims this far above where s
 # alone sags it ~1 cm)
 WALK_LOWEST = 0.92  # of standing height: the lowest the pelvis aims for at a walk
 WALK_ACC = 1.0  # g: the most the pelvis speeds up or slows down at a walk (no lurches in a turn)
-SPEED_UP = 0.4  # g: the most it speeds up along the walk (a person sets off at a fraction of g: at
+SPEED_UP = 0.4  # g: the most it speeds up along the walk to a run (a person sets off at a fraction of g: at
 # a whole g the 1.05 m child set off at a run with its pelvis 1.1 m/s ahead of its feet in 0.2 s,
 # the stance leg left far behind, and sank into a split)
 HELD = 0.6  # of the leg's length: a planted foot behind its hip this far (along the ground) slows
@@ -362,9 +363,10 @@ def control_posture(args, n_chars, gravity, dt, holding):
                 more = min((KEEP_PACE_GAIN - WALK_GAIN) * lag, KEEP_PACE_MOST)
                 ax += more * wx / max(sp, 1e-9)
                 az += more * wz / max(sp, 1e-9)
-            # no lurches: a person changes pace at a fraction of g, and sets off slower still
+            # no lurches: a person changes pace at a fraction of g, and sets off at a run slower still
             push = (ax * wx + az * wz) / max(sp, 1e-9)
-            if push > SPEED_UP * g:
+            asked = walk[c, 0] ** 2 + walk[c, 2] ** 2  # (the pace asked: turning, the pelvis is slower)
+            if push > SPEED_UP * g and asked > WALK_FROUDE_MAX * g * leg_length[c]:  # at a run
                 ax -= (push - SPEED_UP * g) * wx / max(sp, 1e-9)
                 az -= (push - SPEED_UP * g) * wz / max(sp, 1e-9)
             most = WALK_ACC * g
