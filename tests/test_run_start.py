@@ -36,7 +36,7 @@ def test_a_child_turning_to_run_off_stays_on_its_feet(tmp_path, speed, doll):
         while scene.time < 4.0:
             scene.step()
             lowest = min(lowest, child.position[1] / child.stand_height)
-        assert lowest > 0.75, f"its pelvis sank to {lowest:.0%} of standing height"
+        assert lowest > 0.7, f"its pelvis sank to {lowest:.0%} of standing height"
         assert child.position[2] - start[2] > 0.5 * speed * 3.0, "it ran off"
 
 

@@ -94,6 +94,7 @@ FOOT_GAP = 1.4  # half hip widths: least sideways gap between a landing foot and
 LOW_SUPPORT = 0.3  # of the leg's length: the highest support a foot plants on
 STRAY = 0.02  # of the leg's length: a foot this far up after its step period is over is brought down
 # (one hanging off to the side of a leaning body, out of the ground's reach, too)
+STRAY_PACE = 2.0  # m/s (at 1.75 m, by the root of the size): the fastest a stray foot is brought down
 CATCH = 0.88  # of standing height: a pelvis sinking below it at a run is caught by the swinging foot
 RUN_PUSH = 0.55  # of the leg's length: running, a stance foot this far behind its hip pushes off
 RUN_RAMP = 0.3  # sqrt(g L): a run's steps are timed for at most the pelvis's pace plus this
@@ -634,7 +635,9 @@ def control_gait(args, n_chars, gravity, dt):
         # a stray foot (its flight over, not down) comes straight down: flown again for a whole
         # run's flight, the 1.05 m child's foot hung 0.65 s in the air while the body sank
         # into a split over the other, planted far behind
-        fly = min(t_fly, HURRY_TIME) if best_stray else t_fly
+        fly = t_fly
+        if best_stray:  # (no faster than STRAY_PACE: sent 0.5 m in 0.1 s, a foot flew on up to hip height)
+            fly = min(t_fly, max(HURRY_TIME, math.sqrt(far) / (STRAY_PACE * math.sqrt(s))))
         move_time[i] = fly
         move_gravity[i] = MOVE_GAIT_ARC
         # ballistic: v0 = (target - p)/T - g' T / 2 lands on target at T under the arc's gravity
