@@ -23,7 +23,8 @@ NODE_IN_CONTACT = 4  # touched a supporting surface during the last step
 NODE_SPHERE = 8  # collides as a sphere of node_radius (balls)
 NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) until it ends
 NODE_KICK = 32  # the move is a kick's swing: it drives on through a loose ball it meets (collide)
-NODE_CARRIED = 64  # of a loose thing a hand holds: it supports nothing (no foot plants on a carried doll)
+NODE_CARRIED = 64  # of a loose thing a hand holds: no foot plants on it (collide, gait)
+NODE_ON_CARRIED = 128  # rested on a carried thing during the last step (a foot does not plant there)
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer
@@ -628,7 +629,7 @@ class PhysicsState:
         self.held = self._loose_held(grabs)
         # what a hand carries is no ground to stand on: a running child's knee lifts its foot
         # into the doll it carries, and a foot planted there stayed nailed in mid-air as the
-        # doll swung on (collide marks no support on a carried thing)
+        # doll swung on (collide marks what rests on a carried thing, the gait plants no foot there)
         n.flags[: n.count] &= ~np.uint32(NODE_CARRIED)
         for first, end, _, _ in self.held:
             n.flags[first:end] |= np.uint32(NODE_CARRIED)

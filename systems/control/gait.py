@@ -50,6 +50,7 @@ from twig_ecs.store import (
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
     NODE_MOVING,
+    NODE_ON_CARRIED,
     columns,
 )
 from twig_ecs.system import System
@@ -527,6 +528,10 @@ def control_gait(args, n_chars, gravity, dt):
             # nailed there in mid-air (it steps down again instead)
             low = pos[i, 1] <= radius[i] + LOW_SUPPORT * legs
             flying = swinging(flags, move_time, i)
+            # ... nor on a thing someone carries, unless on the ground beside it (a doll swinging
+            # with its carrier is no ground: a foot planted on it stood on air)
+            if flags[i] & NODE_ON_CARRIED and pos[i, 1] > radius[i] + STRAY * legs:
+                low = False
             if not flying and flags[i] & NODE_IN_CONTACT and not flags[i] & NODE_LOCKED and low:
                 flags[i] |= NODE_LOCKED
                 flags[i] &= ~np.uint32(NODE_LOCK_ON_CONTACT)

@@ -26,6 +26,7 @@ from twig_ecs.store import (
     NODE_KICK,
     NODE_LOCKED,
     NODE_MOVING,
+    NODE_ON_CARRIED,
     NODE_SPHERE,
     columns,
 )
@@ -594,15 +595,18 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         # a contact pushing a capsule upwards supports it: high (ground) damping, and a foot
         # may plant there. Only another body's: a knee resting on its own other thigh, or one
         # shin crossed over the other in a turn, marked the foot as standing on something and
-        # it planted in mid-air. Nor a thing a hand carries (NODE_CARRIED): it swings with its
-        # carrier, and a foot planted on it was left standing on air
+        # it planted in mid-air. Resting on a thing a hand carries is marked too
+        # (NODE_ON_CARRIED): it swings with its carrier, and a foot planted on it was left
+        # standing on air (the gait plants no foot there)
         apart = body[i] != body[j]
-        if ny > 0.5 and apart and not (flags[c] | flags[d]) & NODE_CARRIED:
-            flags[a] |= NODE_IN_CONTACT
-            flags[b] |= NODE_IN_CONTACT
-        elif ny < -0.5 and apart and not (flags[a] | flags[b]) & NODE_CARRIED:
-            flags[c] |= NODE_IN_CONTACT
-            flags[d] |= NODE_IN_CONTACT
+        if ny > 0.5 and apart:
+            on = NODE_IN_CONTACT | (NODE_ON_CARRIED if (flags[c] | flags[d]) & NODE_CARRIED else 0)
+            flags[a] |= on
+            flags[b] |= on
+        elif ny < -0.5 and apart:
+            on = NODE_IN_CONTACT | (NODE_ON_CARRIED if (flags[a] | flags[b]) & NODE_CARRIED else 0)
+            flags[c] |= on
+            flags[d] |= on
     return worst
 
 

@@ -14,7 +14,15 @@ import numpy as np
 from numba import njit
 
 from twig_ecs.step import StepContext
-from twig_ecs.store import MOVE_LINE, NODE_IN_CONTACT, NODE_KICK, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import (
+    MOVE_LINE,
+    NODE_IN_CONTACT,
+    NODE_KICK,
+    NODE_LOCKED,
+    NODE_MOVING,
+    NODE_ON_CARRIED,
+    columns,
+)
 from twig_ecs.system import System
 
 
@@ -100,7 +108,7 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
             prev[i, k] = pos[i, k]
             pos[i, k] = new
             acc[i, k] = 0.0
-        flags[i] = f & ~np.uint32(NODE_IN_CONTACT)
+        flags[i] = f & ~np.uint32(NODE_IN_CONTACT | NODE_ON_CARRIED)
 # fmt: on
 
 
