@@ -106,7 +106,7 @@ REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and g
 CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
 WALK_PACE = 1.3  # m/s at 1.75 m tall: a hugger's own walking pace (by the root of its size:
 # bodies of other sizes walk alike at equal Froude numbers - a 1.05 m child ~1.0 m/s)
-RUN_FROUDE = 0.8  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
+RUN_FROUDE = 1.2  # v^2 / (g L) of a run up (``run=True``): past the walk's limit of 0.5, a run
 BRAKE = 1.5  # m/s^2: how hard the walk-up slows over its last steps (a person stops within a step)
 SOCIAL = 1.1  # m (at 1.75 m tall, pelvis to pelvis) the two step back to after a hug (turning back
 # to face each other brings them in a little: they end 0.8-0.9 m apart)
@@ -553,10 +553,12 @@ class Hug(Behavior):
                 return
             movers = crows[moving]
             # the arms swing as it walks: they rise as the wrap begins. A hand that carries
-            # something (a doll, the cradle's pose) keeps it held up: hung at a run, the doll
-            # swung between the 1.05 m child's legs, a foot planted on it and the child fell
-            arms = ch.arm_mode[movers]
-            ch.arm_mode[movers] = np.where(arms == CARRY, CARRY, HANG)
+            # something (a doll, the cradle's pose) keeps it held up until the last steps in:
+            # hung at a run, the doll swung between the 1.05 m child's legs, a foot planted on
+            # it and the child fell; held up to the end, it came between the two and the arm
+            # could not go round
+            keep = (ch.arm_mode[movers] == CARRY) & ~docking[:, None]
+            ch.arm_mode[movers] = np.where(keep, CARRY, HANG)
             ch.walk[movers] = walk  # (an arrived one stops: its walk is nought)
             for goal, update, unless in memory:
                 goal.memory.update(update)
@@ -667,7 +669,9 @@ class Hug(Behavior):
         if gap <= wrap_at:
             goal.memory["phase"], goal.memory["since"] = "wrap", character.scene.time
             return
-        swing_arms(character)  # the arms swing as it walks: they rise as the wrap begins
+        # the arms swing as it walks (a carried doll held up until the last steps in): they
+        # rise as the wrap begins
+        swing_arms(character, carrying=gap >= DOCK_FROM)
         pace = own_pace(character, bool(goal.params.get("run", False)))
         if gap < DOCK_FROM:
             # the last steps, straight in: v = sqrt(2 a d) stops it as the torsos meet
@@ -812,12 +816,12 @@ class Hug(Behavior):
         character.look_at(None)
 
 
-def swing_arms(character) -> None:
+def swing_arms(character, carrying: bool = True) -> None:
     """Let the arms hang and swing as the character walks, but a hand that carries something
-    (the cradle's ``carry`` pose) keeps it held up in front."""
+    (the cradle's ``carry`` pose) keeps it held up in front while ``carrying``."""
     modes = character.scene.state.characters.arm_mode[character.character_row]
     for hand, h in (("left", 0), ("right", 1)):
-        if modes[h] != CARRY:
+        if not (carrying and modes[h] == CARRY):
             character.pose("hang", hand=hand)
 
 

@@ -561,7 +561,9 @@ def control_gait(args, n_chars, gravity, dt):
             h = nd[L_HIP + f]
             # a foot whose step is over but which is neither planted nor flying its arc -
             # knocked off it, or held up on someone in a crush - is brought down first
-            stray = (not flags[i] & NODE_LOCKED and not swinging(flags, move_time, i) and swing[c, f] == 0.0
+            # (whatever its step clock says: a foot knocked off its arc early flew on free, and the
+            # parent's backing away swung it up to its hip's height)
+            stray = (not flags[i] & NODE_LOCKED and not swinging(flags, move_time, i) and move_time[i] == 0.0
                      and pos[i, 1] > radius[i] + STRAY * legs)  # fmt: skip
             if not flags[i] & NODE_LOCKED and not stray:
                 continue  # mid-step
