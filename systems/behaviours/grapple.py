@@ -51,7 +51,8 @@ SHOVE_SPEED = 3.0  # m/s of the two hands of a shove (at 1.75 m tall)
 APPROACH = 1.4  # m/s: a fighter walks up briskly
 FOLLOW = 0.9  # m/s: it steps after a target that backs off, at a walk (not a chase)
 EDGE_IN = 0.4  # m/s (at 1.75 m tall): within reach but beyond arm's length, it edges in
-LET_GO = 1.5  # s out of reach after which the target has got away: the fight is over
+TURNED_AWAY = 0.5  # cos: a target facing more than 60 deg away from the fighter has turned away
+LET_GO = 1.5  # s out of reach (or its back turned) after which the target has got away: the fight is over
 
 
 @register
@@ -105,6 +106,16 @@ class Grapple(Behavior):
                 return
             toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
             character.walk(tuple(toward * FOLLOW * scale**0.5))
+            return
+        away = _unit((character.position - other.position) * np.array([1.0, 0.0, 1.0]))
+        if hasattr(other, "facing") and float(other.facing @ away) < TURNED_AWAY:
+            # turned away (it flinched, it is leaving): no blows at its side or back, guard up;
+            # the fight's clock waits, and if it stays turned away it has got away (the
+            # straight-legged fighter, a step behind, went on hitting a child walking off)
+            character.pose("grapple")
+            character.stop()
+            if now - m["in_reach"] > LET_GO:
+                self.finish(character, goal)
             return
         m["in_reach"] = now
         if gap > ARMS_LENGTH * scale:
