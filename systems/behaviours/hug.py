@@ -552,12 +552,12 @@ class Hug(Behavior):
             if not len(moving):
                 return
             movers = crows[moving]
-            # the arms swing as it walks: they rise as the wrap begins. A hand that carries
-            # something (a doll, the cradle's pose) keeps it held up until the last steps in:
-            # hung at a run, the doll swung between the 1.05 m child's legs, a foot planted on
-            # it and the child fell; held up to the end, it came between the two and the arm
-            # could not go round
-            keep = (ch.arm_mode[movers] == CARRY) & ~docking[:, None]
+            # the arms swing as it walks: they rise as the wrap begins. Running, a hand that
+            # carries something (a doll, the cradle's pose) keeps it held up until the last
+            # steps in: hung at a run, the doll swung between the 1.05 m child's legs, a foot
+            # planted on it and the child fell; held up to the end, it came between the two
+            # and the arm could not go round (walking up, it hangs as before)
+            keep = (ch.arm_mode[movers] == CARRY) & (run & ~docking)[:, None]
             ch.arm_mode[movers] = np.where(keep, CARRY, HANG)
             ch.walk[movers] = walk  # (an arrived one stops: its walk is nought)
             for goal, update, unless in memory:
@@ -669,9 +669,9 @@ class Hug(Behavior):
         if gap <= wrap_at:
             goal.memory["phase"], goal.memory["since"] = "wrap", character.scene.time
             return
-        # the arms swing as it walks (a carried doll held up until the last steps in): they
-        # rise as the wrap begins
-        swing_arms(character, carrying=gap >= DOCK_FROM)
+        # the arms swing as it walks (running, a carried doll held up until the last steps
+        # in): they rise as the wrap begins
+        swing_arms(character, carrying=bool(goal.params.get("run", False)) and gap >= DOCK_FROM)
         pace = own_pace(character, bool(goal.params.get("run", False)))
         if gap < DOCK_FROM:
             # the last steps, straight in: v = sqrt(2 a d) stops it as the torsos meet
