@@ -649,11 +649,22 @@ class PhysicsState:
                 if int(col.body[c]) == thing and node in (int(col.a[c]), int(col.b[c])):
                     for other in arm_capsules:
                         _ignore(col.ignore, c, -2 - other)
+        # what the hand a hand holds holds in turn (a wrist taken to drag someone who holds a
+        # third body): that grip sits on the third body, so the first arm passes it too (the
+        # dragger's forearm was held 14 cm inside the chest of the one its load held on to)
+        beyond = {}
+        for a, b in held_pairs:
+            beyond.setdefault(a, []).append(int(n.body[b]))
         for a, b in held_pairs:
             ba, bb = int(n.body[a]), int(n.body[b])
             if (a, b) in carried:
                 continue
             arm_a = {a, elbow_of.get(a, a)}
+            for third in beyond.get(b, []) if b in elbow_of else []:
+                if third != ba:
+                    for c in range(total):
+                        if int(col.a[c]) in arm_a or int(col.b[c]) in arm_a:
+                            _ignore(col.ignore, c, third)
             # the held end is an arm too only when it is a hand (hand in hand); the
             # capsules at a held doll's middle still meet the carrier's body
             arm_b = {b, elbow_of[b]} if b in elbow_of else set()

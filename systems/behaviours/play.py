@@ -88,7 +88,9 @@ RUNUP = 0.5  # m (at 1.75 m tall) behind the spot that a child not yet lined up 
 # line walks to first, so that it comes up to the toy along the aim, facing it
 RUNUP_WIDTH = 0.2  # m (at 1.75 m tall) off the kicking line that is on it ...
 RUNUP_FROM = 0.9  # ... from this far behind the spot: then the last steps go straight along it
-DIRECT = 1.2  # m (at 1.75 m tall) from the run-up point within which it walks straight there
+DIRECT = 1.2  # m from the run-up point within which it walks straight there, whatever its size
+# (the field holds every walker about a metre off a spot by a fence: scaled to the 1.05 m
+# child, 0.72 m, it stalled 0.9 m from a ball in the yard's corner until it went home)
 LAST_PACE = 0.25  # m/s (at 1.75 m tall, by the root of the size): the least pace of those steps
 KICKING_FOOT = "r_foot"  # a child kicks with its stronger foot (the other stands beside the toy)
 AROUND = 0.6  # m (at 1.75 m tall) out from the toy that a child on its wrong side walks round it
@@ -316,7 +318,7 @@ class Play(Behavior):
                 # else first to a run-up point further back on the line
                 goal = spot - aim * RUNUP * scale
                 gap = ground_distance(here, goal)
-                if gap < DIRECT * scale and speed <= ROLLING:
+                if gap < DIRECT and speed <= ROLLING:
                     # close by: straight there (the field holds a walker off a goal by a
                     # fence, or circles it, a metre short)
                     pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
