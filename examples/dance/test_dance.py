@@ -77,4 +77,6 @@ def test_the_dance_over_arrays_moves_a_floor_as_the_dance_per_character_does(tmp
         b = each.state.nodes.pos[: each.state.nodes.count]
         assert {arrays.entity(f"dancer{k}").behaviour for k in range(12)} == {"crowd_dance"}
         assert np.abs(a - start).max() > 0.1, "they dance"
-        assert np.abs(a - b).max() < 1e-6  # numpy's sin and norms against math's: the last bits
+        # numpy's sin and norms against math's differ in the last bits, and three seconds of
+        # stepping grow that (to 4e-6 m on the straight-legged gait): the same dance to 0.1 mm
+        assert np.abs(a - b).max() < 1e-4

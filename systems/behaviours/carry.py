@@ -311,9 +311,8 @@ class Cradle(Behavior):
 
     Never proposed, never acts: every step, each hand that holds a small loose thing (not
     a character, nothing fixed) and is left hanging by whatever the character is doing is
-    put in the ``carry`` pose - a doll is held up in front, a little out to the side of
-    the hip, where no swinging leg kicks it through, rather than dangled beside the thigh
-    (nor before the legs: a running knee met a doll hung there). A behaviour that wants that
+    put in the ``carry`` pose - a doll is held before the belly, where no swinging leg
+    kicks it through, rather than dangled beside the thigh. A behaviour that wants that
     hand (a hug puts it round the partner, doll and all) takes it over as usual.
     """
 

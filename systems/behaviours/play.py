@@ -88,9 +88,8 @@ RUNUP = 0.5  # m (at 1.75 m tall) behind the spot that a child not yet lined up 
 # line walks to first, so that it comes up to the toy along the aim, facing it
 RUNUP_WIDTH = 0.2  # m (at 1.75 m tall) off the kicking line that is on it ...
 RUNUP_FROM = 0.9  # ... from this far behind the spot: then the last steps go straight along it
-DIRECT = 1.2  # m from the run-up point within which it walks straight there, whatever its size
-# (the field holds every walker about a metre off a spot by a fence: scaled to the 1.05 m
-# child, 0.72 m, it stalled 0.9 m from a ball in the yard's corner until it went home)
+DIRECT = 1.2  # m (at 1.75 m tall) from the run-up point within which it walks straight there
+# (and within 1.2 m at any size while the field turns it away from the point)
 LAST_PACE = 0.25  # m/s (at 1.75 m tall, by the root of the size): the least pace of those steps
 KICKING_FOOT = "r_foot"  # a child kicks with its stronger foot (the other stands beside the toy)
 AROUND = 0.6  # m (at 1.75 m tall) out from the toy that a child on its wrong side walks round it
@@ -305,6 +304,7 @@ class Play(Behavior):
         if far > LINE_UP * scale or not behind or speed > ROLLING or foot_busy(character):
             if not behind:  # on the toy's wrong side: round it first
                 goal = _round_the_toy(here, ball, aim, left, scale)
+                walk = walk_towards(character, self._round_the_decks(here, goal, scale), steer_pace, exclude)
             else:
                 off = here - spot
                 lateral, back = abs(float(off @ left)), -float(off @ aim)
@@ -318,13 +318,19 @@ class Play(Behavior):
                 # else first to a run-up point further back on the line
                 goal = spot - aim * RUNUP * scale
                 gap = ground_distance(here, goal)
-                if gap < DIRECT and speed <= ROLLING:
-                    # close by: straight there (the field holds a walker off a goal by a
-                    # fence, or circles it, a metre short)
+                toward = _flat_unit(goal - here)
+                close = gap < DIRECT * scale
+                route = self._round_the_decks(here, goal, scale)
+                walk = None if close else walk_towards(character, route, steer_pace, exclude)
+                # close by: straight there (the field holds a walker off a goal by a fence, or
+                # circles it, a metre short); a small child further off too while the field
+                # turns it away (held 0.9 m off a ball in the yard's corner, it went home)
+                if (close or (gap < DIRECT and float(walk @ toward) <= 0.0)) and speed <= ROLLING:
                     pace = min(SLOW, max(LAST_PACE, 1.5 * gap)) * scale**0.5
-                    character.walk(_flat_unit(goal - here) * pace)
+                    character.walk(toward * pace)
                     return
-            walk = walk_towards(character, self._round_the_decks(here, goal, scale), steer_pace, exclude)
+                if walk is None:
+                    walk = walk_towards(character, route, steer_pace, exclude)
             pace = float(np.linalg.norm(walk))
             if 1e-6 < pace < CREEP and ground_distance(here, goal) > LINE_UP * scale:
                 walk *= CREEP / pace  # (at the goal itself it would circle it)

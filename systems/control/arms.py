@@ -9,7 +9,7 @@ the gait's swing impulses. Grabbing is a zero-length link made by the Python API
 Targets, with S the shoulder, F the shoulders' forward, L the arm's length:
 REACH a point or node; GRAPPLE S + 0.55 L F, a little low and in; HUG S + 0.7 L F,
 0.45 L out (arms open wide ahead, near full extension); WAVE above the shoulder,
-swaying; POINT S + L towards the target; CARRY S + 0.45 L F, 0.55 L down, 0.15 L out.
+swaying; POINT S + L towards the target; CARRY S + 0.45 L F, 0.55 L down.
 """
 
 from __future__ import annotations
@@ -127,11 +127,9 @@ def control_arms(pos, prev, acc, nodes, arm_mode, arm_point, arm_node, gesture_p
                 ty += length * dy / dn
                 tz += length * dz / dn
             elif mode == CARRY:
-                # out beside the body, not in front of the legs: a doll hung from the hand in
-                # front of a 1.05 m child's left leg took its knee in every running step
-                tx += 0.45 * length * fx + 0.15 * length * ox
+                tx += 0.45 * length * fx - 0.1 * length * ox
                 ty -= 0.55 * length
-                tz += 0.45 * length * fz + 0.15 * length * oz
+                tz += 0.45 * length * fz - 0.1 * length * oz
             target = (tx, ty, tz)
             for k in range(3):
                 v = (pos[w, k] - prev[w, k]) / dt
