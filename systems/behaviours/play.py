@@ -101,6 +101,8 @@ LAND_WAIT = 1.0  # s after a kick at most that it waits for the kicking foot to 
 ROLLING = 1.5  # m/s: a toy rolling faster than this is chased, not kicked
 ARRIVED = 1.2  # m: a toy this near the place it was sent to gets a new one
 YARD_MARGIN = 2.5  # m inside the fence that a kick aims for
+FENCE_ROOM = 0.4  # m (at 1.75 m tall) inside the fence that a kicker stands (at 0.4 m whatever its size,
+# the 1.05 m child stood 0.32 m from a ball by the fence, beyond its swing's reach, stepping on the spot)
 DECK_MARGIN = 2.0  # m beyond a turning deck's rim that a kick aims for (a ball at rest against it is awkward)
 DECK_PATH = 0.6  # m beyond a deck's rim that a kick's straight path keeps
 DECK_CLEAR = 0.5  # m (at 1.75 m tall) beyond a deck's rim where the kicker stands: its legs clear the rim
@@ -281,7 +283,7 @@ class Play(Behavior):
             # the fence instead (the aim with its part across the fence dropped), and
             # stand inside
             lo, hi = self.yard
-            inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
+            inside = np.clip(spot[[0, 2]], lo + FENCE_ROOM * scale, hi - FENCE_ROOM * scale)
             if np.any(inside != spot[[0, 2]]):
                 along = aim.copy()
                 along[[0, 2]] *= inside == spot[[0, 2]]  # keep only the part along the fence
@@ -290,7 +292,7 @@ class Play(Behavior):
                 aim = _flat_unit(along)
                 left = np.array([aim[2], 0.0, -aim[0]])
                 spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
-                inside = np.clip(spot[[0, 2]], lo + 0.4, hi - 0.4)
+                inside = np.clip(spot[[0, 2]], lo + FENCE_ROOM * scale, hi - FENCE_ROOM * scale)
                 if np.any(inside != spot[[0, 2]]):
                     spot[[0, 2]] = inside
                     aim = _flat_unit(ball - spot)
