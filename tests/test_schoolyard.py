@@ -91,10 +91,13 @@ def test_children_play_ball_spin_the_merry_go_round_and_the_doll_is_carried(stor
     # now meets the deck it runs beside (only its holding arms pass through the ride)
     assert report["merry_go_round_peak_rad_s"] > 0.3, "a child spun it"
     assert kids["small_child"]["held_fraction"]["ragdoll"] > 0.9, "the doll is carried most of the run"
-    # the parent watches, but for turning to and holding the child that comes for a hug
+    # the parent watches, but for turning to and holding the child that comes for a hug, and
+    # stepping back from it: nothing else, and no hold drawn out (watching 226-238 s of the
+    # 300 before the straight-legged gait, 222 s on it: the child came for 11 hugs of 5.4 s)
     parent = kids["parent"]["time_per_behaviour"]
-    assert parent["watch"] > 0.75 * FIVE_MINUTES
-    assert parent["watch"] + parent.get("embrace", 0.0) > 0.9 * FIVE_MINUTES
+    assert parent["watch"] > 0.7 * FIVE_MINUTES
+    assert parent["watch"] + parent.get("embrace", 0.0) + parent.get("step_back", 0.0) > 0.99 * FIVE_MINUTES
+    assert parent.get("embrace", 0.0) < 7.0 * max(kids["small_child"]["hugs"], 1)
     assert plot.stat().st_size > 10_000
 
 
