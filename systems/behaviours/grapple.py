@@ -28,11 +28,13 @@ from twig_ecs.kernelmath import (
     HEAD,
     L_ELBOW,
     L_HAND,
+    L_HIP,
     L_SHOULDER,
     NECK,
     PELVIS,
     R_ELBOW,
     R_HAND,
+    R_HIP,
     REACH,
     SIT,
     SPINE,
@@ -265,14 +267,22 @@ def _act_packed(grapple: Behavior, table: RowTable, rows: list[int], entities: l
     gap = ground_gaps(here[fights], there[fights])
     s = scale[fights]
     away = gap > 1.3 * ARMS_LENGTH * s
-    let_go = np.array([now - memories[k]["in_reach"] > LET_GO for k in fights.tolist()], dtype=bool) & away
+    # within reach but turned away (CharacterHandle.facing: (left hip - right hip) x up): guard
+    # up, standing, no blows, the fight's clock waiting
+    tf = theirs[fights]
+    hips = pos[tf[:, L_HIP]] - pos[tf[:, R_HIP]]
+    facing = units(np.stack([-hips[:, 2], np.zeros(len(fights)), hips[:, 0]], axis=1))
+    back = units((here[fights] - there[fights]) * GROUND)
+    turned = ~away & (np.einsum("ij,ij->i", facing, back) < TURNED_AWAY)
+    let_go = np.array([now - memories[k]["in_reach"] > LET_GO for k in fights.tolist()], dtype=bool)
+    let_go &= away | turned
     toward = units((there[fights] - here[fights]) * GROUND)
     root_f = root[fights, None]
     step = np.where(away[:, None], toward * FOLLOW * root_f, toward * EDGE_IN * root_f)
-    stepping = (away & ~let_go) | (~away & (gap > ARMS_LENGTH * s))
+    stepping = (away & ~let_go) | (~away & ~turned & (gap > ARMS_LENGTH * s))
     if not walkable(step[stepping], limit[fights[stepping]]):
         return False
-    close = fights[~away]
+    close = fights[~away & ~turned]
     fought = [memories[k].get("fought", 0.0) + dt for k in close.tolist()]
     blow = np.array([int(f / PUNCH) for f in fought], dtype=np.int64)
     was = [memories[k].get("blow") for k in close.tolist()]
@@ -296,7 +306,7 @@ def _act_packed(grapple: Behavior, table: RowTable, rows: list[int], entities: l
     ch.gaze_node[crows] = theirs[:, HEAD]  # look_at(target, node="head")
     ch.gaze_mode[crows] = GAZE_NODE
     ch.arm_mode[crows[walking]] = GRAPPLE
-    ch.arm_mode[crows[fights[away]]] = GRAPPLE
+    ch.arm_mode[crows[fights[away | turned]]] = GRAPPLE
     ch.walk[crows[walking]] = up_walk  # (an arrived one stops: its walk is nought)
     ch.walk[crows[fights[~away & ~stepping]]] = 0.0  # within arm's length: it stands
     ch.walk[crows[fights[stepping]]] = step[stepping]
