@@ -314,6 +314,12 @@ class Play(Behavior):
                 if on_line and speed <= ROLLING:
                     # on the kicking line behind the spot: the last steps straight along it
                     # (facing the aim when it gets there), slowing as it comes up
+                    if far <= LINE_UP * scale:
+                        # on the spot, a foot still in the air: the way to the spot is noise
+                        # there, and the body turns to the way it walks (a 1.2 m child turned
+                        # 70 degrees from the aim on the spot and walked onto the toy)
+                        character.walk(aim * TURN_STEP * scale)
+                        return
                     pace = min(SLOW, max(LAST_PACE, 1.5 * far)) * scale**0.5
                     character.walk(_flat_unit(spot - here) * pace)
                     return
