@@ -171,6 +171,40 @@ def test_every_kernel_is_filed_by_our_cache_locator():
     assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
 
 
+def test_a_kernel_called_with_a_constant_compiles_once_for_the_plain_type(tmp_path):
+    # numba types a constant argument of a call from one kernel to another as its literal
+    # (Literal[int](0)) and compiled the callee again for it: a second specialisation of the
+    # same code on every first run (landing_target for a -1, _skipped for a 1). Ours compile
+    # once, for int64, whatever their callers pass.
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there are no kernels to compile")
+    (tmp_path / "probe_kernels.py").write_text(
+        "from numba import njit\n"
+        "@njit(cache=True)\n"
+        "def callee(a, k):\n"
+        "    return a[k]\n"
+        "@njit(cache=True)\n"
+        "def caller(a, n):\n"
+        "    return callee(a, 0) + callee(a, -1) + callee(a, n - 1)\n"
+    )
+    probe = (
+        "import sys; import numpy as np; from twig_ecs import kernelcache\n"
+        "from pathlib import Path\n"
+        "dirs = kernelcache.kernel_dirs()\n"
+        f"kernelcache.kernel_dirs = lambda: (*dirs, Path({str(tmp_path)!r}))  # a folder of ours\n"
+        "kernelcache.configure_cache()\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "from probe_kernels import callee, caller\n"
+        "print(caller(np.arange(4.0), 4), type(callee._cache._impl.locator).__name__)\n"
+        "print([str(sig) for sig in callee.signatures])\n"
+    )
+    run = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
+    assert run.returncode == 0, run.stderr
+    result, signatures = run.stdout.splitlines()
+    assert result == "6.0 KernelCacheLocator"  # 0 + 3 + 3, filed as one of ours
+    assert eval(signatures) == ["(Array(float64, 1, 'C', False, aligned=True), int64)"]  # noqa: S307
+
+
 def test_version_and_help_start_without_numba_or_the_scene():
     probe = ("import sys; from twig_ecs.cli import main\n"
              "try: main(sys.argv[1:])\n"
