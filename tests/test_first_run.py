@@ -580,3 +580,41 @@ def test_built_in_content_reads_the_same_with_the_fast_parser_and_only_it_gets_i
     assert not library._builtin(mine)
     with pytest.raises(TwigError, match="nested"):
         library.read_document(mine)
+
+
+def test_a_compile_in_this_process_raises_the_collectors_thresholds_until_it_ends():
+    # the build workers compile at kernelcache.COMPILE_GC_THRESHOLD throughout; a program that
+    # compiles in its own process (the Python API's first steps) had the default's full passes
+    # over numba's growing heap, a fifth of the compile. Raised while a compile runs, put back after.
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there is nothing to compile")
+    import gc
+
+    from numba import njit
+    from numba.core import event
+
+    from twig_ecs.kernelcache import COMPILE_GC_THRESHOLD
+
+    seen = []
+
+    class Watch(event.Listener):
+        def on_start(self, ev) -> None:
+            seen.append(gc.get_threshold())
+
+        def on_end(self, ev) -> None:
+            pass
+
+    before = gc.get_threshold()
+    watch = Watch()
+    event.register("numba:compile", watch)
+    try:
+
+        @njit
+        def probe(x):
+            return x + 1
+
+        assert probe(1) == 2  # compiled now, in this process
+    finally:
+        event.unregister("numba:compile", watch)
+    assert seen and seen[0] == COMPILE_GC_THRESHOLD
+    assert gc.get_threshold() == before, "put back when the compile ended"

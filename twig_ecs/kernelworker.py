@@ -17,15 +17,9 @@ from pathlib import Path
 from numba.core import event
 
 from twig_ecs import kernels
+from twig_ecs.kernelcache import COMPILE_GC_THRESHOLD
 from twig_ecs.scene import Scene
 from twig_ecs.trust import trusting
-
-#: The garbage collector's thresholds while a worker compiles. numba's compiler makes millions of
-#: short-lived objects, and at Python's default (700, 10, 10) the collector's full passes over
-#: the growing heap took a fifth of a first run's compile: one process, the schoolyard, 40.0 ->
-#: 31.1 s of CPU with it off, ~37.6 -> 43.4 s with these at load 4.5 (peak memory 336 MB at the
-#: default, 515 MB with these, 738 MB off). A worker exits when its kernels are cached.
-COMPILE_GC_THRESHOLD = (100_000, 50, 1000)
 
 
 class _Claimed(Exception):
