@@ -12,7 +12,7 @@ import numpy as np
 
 from twig_ecs import Scene
 from twig_ecs.mind import Mind
-from twig_ecs.systems.behaviours import arrays, fight, grapple, withdraw
+from twig_ecs.systems.behaviours import fight, grapple, withdraw
 
 #: What grapple and defend write in the character table (``prev``, the blows, apart).
 WRITTEN = ("walk", "gaze_node", "gaze_mode", "arm_mode", "arm_node", "arm_point", "mode", "seat", "mode_time")
@@ -252,7 +252,7 @@ def test_the_walking_up_grapplers_are_steered_in_one_call_not_one_steer_to_each(
     with scene:
         monkeypatch.setattr(grapple, "steer_to", per_character)
         monkeypatch.setattr(approach, "steer_to", per_character)
-        monkeypatch.setattr(arrays, "steer_rows", counted)
+        monkeypatch.setattr(approach, "steer_rows", counted)  # (the batch's call: approach.steer_batch)
         scene.run(0.5)
         assert [g.status for g in goals] == ["active"] * len(goals), [g.reason for g in goals]
         assert max(calls) >= 4, "the grapplers walking up were steered together"

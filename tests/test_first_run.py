@@ -171,6 +171,40 @@ def test_every_kernel_is_filed_by_our_cache_locator():
     assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
 
 
+def test_a_kernel_called_with_a_constant_compiles_once_for_the_plain_type(tmp_path):
+    # numba types a constant argument of a call from one kernel to another as its literal
+    # (Literal[int](0)) and compiled the callee again for it: a second specialisation of the
+    # same code on every first run (landing_target for a -1, _skipped for a 1). Ours compile
+    # once, for int64, whatever their callers pass.
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there are no kernels to compile")
+    (tmp_path / "probe_kernels.py").write_text(
+        "from numba import njit\n"
+        "@njit(cache=True)\n"
+        "def callee(a, k):\n"
+        "    return a[k]\n"
+        "@njit(cache=True)\n"
+        "def caller(a, n):\n"
+        "    return callee(a, 0) + callee(a, -1) + callee(a, n - 1)\n"
+    )
+    probe = (
+        "import sys; import numpy as np; from twig_ecs import kernelcache\n"
+        "from pathlib import Path\n"
+        "dirs = kernelcache.kernel_dirs()\n"
+        f"kernelcache.kernel_dirs = lambda: (*dirs, Path({str(tmp_path)!r}))  # a folder of ours\n"
+        "kernelcache.configure_cache()\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "from probe_kernels import callee, caller\n"
+        "print(caller(np.arange(4.0), 4), type(callee._cache._impl.locator).__name__)\n"
+        "print([str(sig) for sig in callee.signatures])\n"
+    )
+    run = run_python("-c", probe, env={"TWIG_CACHE_DIR": str(tmp_path / "cache")})
+    assert run.returncode == 0, run.stderr
+    result, signatures = run.stdout.splitlines()
+    assert result == "6.0 KernelCacheLocator"  # 0 + 3 + 3, filed as one of ours
+    assert eval(signatures) == ["(Array(float64, 1, 'C', False, aligned=True), int64)"]  # noqa: S307
+
+
 def test_version_and_help_start_without_numba_or_the_scene():
     probe = ("import sys; from twig_ecs.cli import main\n"
              "try: main(sys.argv[1:])\n"
@@ -546,3 +580,41 @@ def test_built_in_content_reads_the_same_with_the_fast_parser_and_only_it_gets_i
     assert not library._builtin(mine)
     with pytest.raises(TwigError, match="nested"):
         library.read_document(mine)
+
+
+def test_a_compile_in_this_process_raises_the_collectors_thresholds_until_it_ends():
+    # the build workers compile at kernelcache.COMPILE_GC_THRESHOLD throughout; a program that
+    # compiles in its own process (the Python API's first steps) had the default's full passes
+    # over numba's growing heap, a fifth of the compile. Raised while a compile runs, put back after.
+    if kernels.jit_disabled():
+        pytest.skip("NUMBA_DISABLE_JIT=1: there is nothing to compile")
+    import gc
+
+    from numba import njit
+    from numba.core import event
+
+    from twig_ecs.kernelcache import COMPILE_GC_THRESHOLD
+
+    seen = []
+
+    class Watch(event.Listener):
+        def on_start(self, ev) -> None:
+            seen.append(gc.get_threshold())
+
+        def on_end(self, ev) -> None:
+            pass
+
+    before = gc.get_threshold()
+    watch = Watch()
+    event.register("numba:compile", watch)
+    try:
+
+        @njit
+        def probe(x):
+            return x + 1
+
+        assert probe(1) == 2  # compiled now, in this process
+    finally:
+        event.unregister("numba:compile", watch)
+    assert seen and seen[0] == COMPILE_GC_THRESHOLD
+    assert gc.get_threshold() == before, "put back when the compile ended"

@@ -82,7 +82,7 @@ def test_the_walk_up_over_arrays_writes_what_the_per_character_walk_up_does():
 
 
 def test_every_walking_hugger_is_steered_in_one_call_not_one_steer_to_each(monkeypatch):
-    from twig_ecs.systems.behaviours import hug
+    from twig_ecs.systems.behaviours import approach, hug
 
     def per_character(*args, **kwargs):
         raise AssertionError("steer_to called for one hugger")
@@ -98,7 +98,7 @@ def test_every_walking_hugger_is_steered_in_one_call_not_one_steer_to_each(monke
     scene, goals = walking_up()
     with scene:
         monkeypatch.setattr(hug, "steer_to", per_character)
-        monkeypatch.setattr(hug, "steer_rows", counted, raising=False)
+        monkeypatch.setattr(approach, "steer_rows", counted)  # (the batch's call: approach.steer_batch)
         start = {k: scene.entity(f"h{k}").position.copy() for k in range(4)}
         scene.run(1.0)
         assert [g.status for g in goals] == ["active"] * len(goals), [g.reason for g in goals]

@@ -9,6 +9,7 @@ module stays below the scene; ``KernelBuild`` starts it with ``python -c``.
 
 from __future__ import annotations
 
+import gc
 import os
 import time
 from pathlib import Path
@@ -16,6 +17,7 @@ from pathlib import Path
 from numba.core import event
 
 from twig_ecs import kernels
+from twig_ecs.kernelcache import COMPILE_GC_THRESHOLD
 from twig_ecs.scene import Scene
 from twig_ecs.trust import trusting
 
@@ -36,6 +38,7 @@ def work(job: dict) -> int:
     given up releases its own claim, so no worker waits for a kernel nobody compiles.
     """
     kernels.announce_no_compile()  # this process compiles on purpose: no first-run notice
+    gc.set_threshold(*COMPILE_GC_THRESHOLD)
     claims = Path(job["claims"]) if job.get("claims") else None
     state = {"depth": 0, "second_pass": False}
     owned: set[str] = set()  # kernels this worker claimed (a second specialisation is ours too)

@@ -191,6 +191,43 @@ def walk_towards(character, point: np.ndarray, speed: float, exclude: tuple[str,
     return _steer_one(character, row, field)[0]
 
 
+def steer_batch(scene, crows: np.ndarray, skip_bodies: np.ndarray, there: np.ndarray, direction: np.ndarray,
+                stop, speed, memories: list[dict]):  # fmt: skip
+    """The steering kernel's call of :func:`steer_to` for many walkers at once (the hug's and the
+    brawl's walk-ups): character ``crows[k]`` walks to ``there[k]``, stopping ``stop`` (m, one or
+    per row) short, at ``speed`` (m/s, one or per row), body ``skip_bodies[k]`` no obstacle to it,
+    ``direction[k]`` the unit ground vector from the point to it (the caller's arithmetic), its
+    stall clock read from ``memories[k]`` (its goal's).
+
+    Returns (the walkers after the call, the walk vectors, ``best`` and ``squeeze_until`` as they
+    were before it, the time) - the caller writes the clocks back as its goals keep them; None
+    when one has stalled or asks for a walk it cannot do (the per-character form says why)."""
+    n = len(crows)
+    ch = scene.state.characters
+    w = walkers(n)._replace(crows=np.arange(n), skip_bodies=skip_bodies, skip_start=np.arange(n),
+                            skip_count=np.ones(n, dtype=np.int64))  # fmt: skip
+    w.stop[:] = stop
+    w.pelvis[:] = ch.nodes[crows, PELVIS]
+    w.me[:] = ch.body[crows]
+    w.point[:] = there
+    w.arrive[:] = stop + ARRIVE_SLACK
+    w.direction[:, :3] = direction
+    w.direction[:, 3] = ALONG_UNIT
+    w.speed[:] = speed
+    w.stall[:] = STALL_TIME
+    now = scene.time
+    w.best[:] = [m.get("best", np.inf) for m in memories]
+    w.best_at[:] = [m.get("best_at", now) for m in memories]
+    w.squeeze_until[:] = [m.get("squeeze_until", -np.inf) for m in memories]
+    best, squeeze_until = w.best.copy(), w.squeeze_until.copy()
+    walk = np.zeros((n, 3))
+    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
+               scene.dt)  # fmt: skip
+    if ((w.status != WALKING) & (w.status != SAT) & (w.status != ARRIVED)).any():
+        return None  # stalled (the goal fails), or a walk it cannot do
+    return w, walk, best, squeeze_until, now
+
+
 def _one_row(character, point, speed: float | None, exclude) -> Walkers:
     """A one-row batch of :func:`steer_rows` for ``character`` walking to ``point`` (from
     where it is, at ``speed``: None, the field's pace), the entities ``exclude`` names no obstacle."""

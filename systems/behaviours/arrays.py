@@ -16,31 +16,17 @@ import math
 
 import numpy as np
 
-from twig_ecs.kernelmath import PELVIS
 from twig_ecs.rowtable import RowTable
 from twig_ecs.systems.behaviours.approach import (
-    ARRIVE_SLACK,
-    SQUEEZE,
-    SQUEEZE_AFTER,
-    SQUEEZE_HOLD,
-    STALL_TIME,
-    grab_pairs,
+    steer_batch,
 )
 from twig_ecs.systems.behaviours.hug import mean_velocities
 from twig_ecs.systems.control.steer import (
-    ALONG_UNIT,
     ARRIVED,
-    SAT,
-    WALKING,
-    around,
-    gains,
-    steer_rows,
-    walkers,
 )
 from twig_ecs.validate import LIMIT
 
 #: ``steer_to``'s steering gains: approach's (the same field and figures).
-_GAINS = gains(SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD)
 #: Multiplies a vector onto the ground plane (the handle code's ``* np.array([1.0, 0.0, 1.0])``).
 GROUND = np.array([1.0, 0.0, 1.0])
 
@@ -88,32 +74,15 @@ def steer_to_rows(scene, crows: np.ndarray, memories: list[dict], targets: RowTa
     n = len(crows)
     if not n:
         return np.zeros((0, 3)), np.zeros(0, dtype=bool)
-    ch = scene.state.characters
     direction = (here - there) * GROUND
     norm = lengths(direction)
     far = norm > 1e-9
     direction[far] /= norm[far, None]
     direction[~far] = 0.0  # (no length, no direction)
-    w = walkers(n)._replace(crows=np.arange(n), skip_bodies=targets["body"][at], skip_start=np.arange(n),
-                            skip_count=np.ones(n, dtype=np.int64), stop=stop.copy())  # fmt: skip
-    w.pelvis[:] = ch.nodes[crows, PELVIS]
-    w.me[:] = ch.body[crows]
-    w.point[:] = there
-    w.arrive[:] = stop + ARRIVE_SLACK
-    w.direction[:, :3] = direction
-    w.direction[:, 3] = ALONG_UNIT
-    w.speed[:] = speed
-    w.stall[:] = STALL_TIME
-    now = scene.time
-    w.best[:] = [m.get("best", np.inf) for m in memories]
-    w.best_at[:] = [m.get("best_at", now) for m in memories]
-    w.squeeze_until[:] = [m.get("squeeze_until", -np.inf) for m in memories]
-    best, squeeze_until = w.best.copy(), w.squeeze_until.copy()
-    walk = np.zeros((n, 3))
-    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
-               scene.dt)  # fmt: skip
-    if ((w.status != WALKING) & (w.status != SAT) & (w.status != ARRIVED)).any():
+    steered = steer_batch(scene, crows, targets["body"][at], there, direction, stop, speed, memories)
+    if steered is None:
         return None  # stalled (the goal fails), or a walk it cannot do
+    w, walk, best, squeeze_until, now = steered
     arrived = w.status == ARRIVED
     going = np.flatnonzero(~arrived)
     if len(going):

@@ -64,12 +64,7 @@ from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import ground_distance
 from twig_ecs.store import LINK_COLLIDE
 from twig_ecs.systems.behaviours.approach import (
-    ARRIVE_SLACK,
-    SQUEEZE,
-    SQUEEZE_AFTER,
-    SQUEEZE_HOLD,
-    STALL_TIME,
-    grab_pairs,
+    steer_batch,
     steer_to,
 )
 from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the partner's answer to a hug)
@@ -87,14 +82,7 @@ from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the
     mutual_hug,
 )
 from twig_ecs.systems.control.steer import (
-    ALONG_UNIT,
     ARRIVED,
-    SAT,
-    WALKING,
-    around,
-    gains,
-    steer_rows,
-    walkers,
 )
 from twig_ecs.systems.physics.collide import segment_gap2
 from twig_ecs.validate import LIMIT
@@ -344,7 +332,6 @@ _GOAL_ROW = {
 }
 
 #: The walk-up's steering gains: approach's (the same field and figures as ``steer_to``).
-_GAINS = gains(SQUEEZE_AFTER, SQUEEZE, SQUEEZE_HOLD)
 
 
 @register
@@ -578,34 +565,16 @@ class Hug(Behavior):
         lengths are numpy's (``np.linalg.norm``: a dot product per row)."""
         scene = self.scene
         state = scene.state
-        ch = state.characters
-        n = len(crows)
         direction = (here - there) * np.array([1.0, 0.0, 1.0])
         norm = np.sqrt(np.array([d.dot(d) for d in direction]))
         far = norm > 1e-9
         direction[far] /= norm[far, None]
         direction[~far] = 0.0
-        w = walkers(n)._replace(crows=np.arange(n), skip_bodies=table["body"][at], skip_start=np.arange(n),
-                                skip_count=np.ones(n, dtype=np.int64))  # fmt: skip
-        w.pelvis[:] = ch.nodes[crows, PELVIS]
-        w.me[:] = ch.body[crows]
-        w.point[:] = there
-        w.arrive[:] = 0.0 + ARRIVE_SLACK
-        w.direction[:, :3] = direction
-        w.direction[:, 3] = ALONG_UNIT
-        w.speed[:] = pace
-        w.stall[:] = STALL_TIME
-        now = scene.time
         memories = [goal.memory for goal in goals]
-        w.best[:] = [m.get("best", np.inf) for m in memories]
-        w.best_at[:] = [m.get("best_at", now) for m in memories]
-        w.squeeze_until[:] = [m.get("squeeze_until", -np.inf) for m in memories]
-        best, squeeze_until = w.best.copy(), w.squeeze_until.copy()
-        walk = np.zeros((n, 3))
-        steer_rows(around(scene, grab_pairs(scene.world), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
-                   scene.dt)  # fmt: skip
-        if ((w.status != WALKING) & (w.status != SAT) & (w.status != ARRIVED)).any():
+        steered = steer_batch(scene, crows, table["body"][at], there, direction, 0.0, pace, memories)
+        if steered is None:
             return None  # stalled (the goal fails), or a walk it cannot do
+        w, walk, best, squeeze_until, now = steered
         going = w.status != ARRIVED
         updates = []
         for k in np.flatnonzero(going):
