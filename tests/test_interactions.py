@@ -464,3 +464,18 @@ def test_a_kick_swings_in_front_of_the_body(tmp_path, scenes, monkeypatch, seed)
     assert len(swings) >= 4, "it kicks again and again (each kick sends the ball off at 3-6 m/s: a chase)"
     assert min(swings) >= 0.69, "no kick swings more than 45 degrees off the body's facing"
     assert pitch < 30.0
+
+
+@pytest.mark.parametrize(("status", "reason", "soothed"), [
+    ("done", "", True),
+    ("failed", "could not get its arms round", True),  # it got there: pressed to the parent
+    ("failed", "stuck", False),  # it never got there
+])  # fmt: skip
+def test_a_run_home_hug_that_reached_the_caregiver_soothes_the_child(status, reason, soothed):
+    from twig_ecs.components import Attachment
+    from twig_ecs.mind import Goal
+    from twig_ecs.systems.behaviours.attachment import Soothe
+
+    attachment = Attachment(caregiver="parent", anxiety=0.6)
+    Soothe(attachment)(Goal("hug", {}, status=status, reason=reason))
+    assert (attachment.anxiety == 0.0) is soothed and attachment.hugs == int(soothed)

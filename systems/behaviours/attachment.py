@@ -17,6 +17,7 @@ from twig_ecs.character import CharacterHandle
 from twig_ecs.components import Attachment, Character
 from twig_ecs.steering import ground_distance
 from twig_ecs.step import StepContext
+from twig_ecs.systems.behaviours.hug import ARMS_NOT_ROUND
 
 
 @dataclass(slots=True)
@@ -35,7 +36,10 @@ RUN_HOME = 1.0  # activation of running back: above play and fights, below pain
 
 @dataclass
 class Soothe:
-    """A run-home hug's ``on_end``: a hug that reached the caregiver calms the child.
+    """A run-home hug's ``on_end``: a hug that reached the caregiver calms the child - also
+    one whose arms did not get round in time: the wrap begins at the caregiver's side, and
+    being there is what soothes (seed 0 once ended a 3 s wrap pressed to the parent, doll in
+    hand, and went back to play still anxious).
 
     A small class rather than a closure, so a snapshot of the scene can keep it.
     """
@@ -43,7 +47,7 @@ class Soothe:
     attachment: Attachment
 
     def __call__(self, done: Goal) -> None:
-        if done.status == "done":
+        if done.status == "done" or done.reason == ARMS_NOT_ROUND:
             self.attachment.anxiety, self.attachment.hugs = 0.0, self.attachment.hugs + 1
 
 

@@ -89,6 +89,7 @@ from twig_ecs.validate import LIMIT
 
 CLOSE = 0.32  # m (at 1.75 m tall): pelvis to pelvis a small hugger closes in to a big partner
 CLOSE_EQUAL = 0.42  # m (at 1.75 m tall): and an equal (closer, their legs would tangle)
+ARMS_NOT_ROUND = "could not get its arms round"  # the reason a hug fails in its wrap
 WRAP_TIME = 4.0  # s to get the arms round (the last step in included: the wrap begins 0.75 m out)
 REACH_IN = 0.75  # m beyond CLOSE where the walk-up ends and the arms rise and go round (the last step)
 CREEP = 0.3  # m/s: the least pace of the last steps in, arms going round
@@ -771,7 +772,7 @@ class Hug(Behavior):
             elif on_back[k]:  # both hands round, or one short arm round a broad body in time
                 goal.memory["phase"], goal.memory["since"] = "hold", now
             else:
-                self.finish(character, goal, False, "could not get its arms round")
+                self.finish(character, goal, False, ARMS_NOT_ROUND)
 
     def stop(self, character, goal: Goal | None) -> None:
         """Arms down (a carried toy stays in its hand) and stand up straight."""
