@@ -46,6 +46,9 @@ def test_lab_helpers_measure_a_known_track():
     assert walklab.foot_moves(track) == 4
     downs = walklab.touchdowns(track)
     assert [k for k, f in downs if f == 0] == [20, 40]
+    assert walklab.walk_figures(track)["twice"] == 0.0, "the feet take turns"
+    track.locked[32:35, 1] = False  # the right foot (down at 30) up and down again before the left lands
+    assert walklab.walk_figures(track)["twice"] == 1.0
     straight = walklab.knee_flexion(np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.5, 0.0]), np.zeros(3))
     bent = walklab.knee_flexion(
         np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.5, 0.5]), np.array([0.0, 0.0, 0.0])
@@ -187,6 +190,33 @@ def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, 
     assert 2.25 <= run["speed"] <= 2.75, "within 10% of the asked pace"
     feet = [f for _, f in walklab.touchdowns(track)]
     assert all(a != b for a, b in zip(feet, feet[1:], strict=False)), f"a foot landed twice in a row: {feet}"
+
+
+@pytest.mark.parametrize("speed", [2.2, 2.3, 2.4])
+def test_an_adult_runs_just_past_the_walk_with_even_steps_not_bounds(speed):
+    # before (issue 35): asked 2.2-2.4 m/s the adult bounded - 1.74-1.94 steps/s, airborne about
+    # half the time, left and right steps 15-31% apart: a foot that hung a few cm up at the end of
+    # its step flew again to the next landing spot, and the other foot stepped again when it landed
+    run = walklab.measure_walk(1.75, speed)
+    assert 2.4 <= run["cadence"] <= 3.1, f"{run['cadence']:.2f} steps/s (before: 1.74-1.94)"
+    assert run["step_lr"] <= 0.10, (
+        f"left and right steps differ by {100 * run['step_lr']:.0f}% (before: 15-31)"
+    )
+    assert run["twice"] == 0, "the feet take turns"
+    assert run["double"] == 0.0 and run["flight"] > 0.1, "a run: never both feet down, a flight every step"
+
+
+@pytest.mark.parametrize(
+    ("height", "speeds"),
+    [(1.75, (0.8, 1.2, 1.6, 2.0, 2.2, 2.5, 2.8, 3.0)), (1.05, (0.8, 1.2, 1.6, 1.8, 2.0, 2.2))],
+)
+def test_every_size_reaches_the_pace_it_is_asked_for_walking_and_running(height, speeds):
+    # before (issue 35): the adult asked 2.8 and 3.0 m/s reached 2.50 and 2.58 (its step held near
+    # 1.0 m by the leg's reach while the cadence stayed at 2.6), the 1.05 m child asked 2.2 1.97;
+    # now past the longest step the leg reaches the cadence goes up instead
+    for speed in speeds:
+        got = walklab.measure_walk(height, speed)["speed"]
+        assert abs(got / speed - 1.0) <= 0.10, f"{height} m asked {speed} m/s reached {got:.2f}"
 
 
 def test_past_a_walks_limit_a_child_runs_with_both_feet_off_the_ground_capped_by_its_size(scenes):

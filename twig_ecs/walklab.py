@@ -19,8 +19,9 @@ import numpy as np
 TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot")
 #: Body heights (m) the lab measures: a small child, a big child, an adult.
 SIZES = (1.05, 1.35, 1.75)
-#: Speeds (m/s) the lab asks each size for: walks, and a run (2.4 m/s: Froude 0.6-1.1).
-SPEEDS = (0.8, 1.0, 1.2, 1.6, 2.4)
+#: Speeds (m/s) the lab asks each size for: walks, and runs (2.4 m/s: Froude 0.6-1.1; 3.0 m/s:
+#: an adult's brisk run, Froude 1.05, past the 1.05 m child's top speed of Froude 1.5, 2.8 m/s).
+SPEEDS = (0.8, 1.0, 1.2, 1.6, 2.4, 3.0)
 
 
 @dataclass
@@ -102,6 +103,8 @@ def walk_figures(track: Track) -> dict[str, float]:
             lengths.append(float((feet[f1][k1] - feet[f0][k0]) @ track.heading))
             by_foot[f1].append(lengths[-1])
     out["step"] = float(np.median(lengths)) if lengths else 0.0
+    # the same foot landing twice in a row (a foot that hung in the air and flew again)
+    out["twice"] = float(sum(1 for (_, a), (_, b) in zip(downs, downs[1:], strict=False) if a == b))
     # left and right steps alike: the difference of their medians over their mean
     if by_foot[0] and by_foot[1]:
         left, right = float(np.median(by_foot[0])), float(np.median(by_foot[1]))
@@ -253,6 +256,7 @@ HUMAN = {
     "pelvis": "close to standing (>= 0.9), bob 2-5 cm",
     "double": "~0.20 at a normal walk, less faster; none running",
     "flight": "0 walking; running 0.1-0.3 (both feet up)",
+    "twice": "0 (feet take turns: no foot lands twice in a row)",
     "lift": "a few cm at the toe, visibly at the heel",
     "uturn": "upright: a few degrees (<= 30 here)",
     "idle": "0 (step only when balance needs it)",
@@ -277,7 +281,7 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
     lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
     head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
             f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'flight':>6} {'lift cm':>7} "
-            f"{'ahead cm':>8} {'pace -%':>7} {'pace +%':>7} {'L/R %':>5}")  # fmt: skip
+            f"{'ahead cm':>8} {'pace -%':>7} {'pace +%':>7} {'L/R %':>5} {'twice':>5}")  # fmt: skip
     lines += [head, "-" * len(head)]
     for r in rows:
         lines.append(
@@ -285,7 +289,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
             f"{r['step']:6.2f} {r['step'] / r['legs']:6.2f} {r['knee']:5.0f} {r['pelvis']:6.2f} "
             f"{100 * r['bob']:6.1f} {r['double']:6.2f} {r.get('flight', 0.0):6.2f} {100 * r['lift']:7.1f} "
             f"{100 * r['ahead']:8.1f} {100 * (1.0 - r.get('pace_low', 1.0)):7.0f} "
-            f"{100 * (r.get('pace_high', 1.0) - 1.0):7.0f} {100 * r.get('step_lr', 0.0):5.1f}"
+            f"{100 * (r.get('pace_high', 1.0) - 1.0):7.0f} {100 * r.get('step_lr', 0.0):5.1f} "
+            f"{r.get('twice', 0.0):5.0f}"
         )
     lines += [
         "",

@@ -99,6 +99,7 @@ STRAY_PACE = 2.0  # m/s (at 1.75 m, by the root of the size): the fastest a stra
 CATCH = 0.88  # of standing height: a pelvis sinking below it at a run is caught by the swinging foot
 RUN_PUSH = 0.55  # of the leg's length: running, a stance foot this far behind its hip pushes off
 RUN_RAMP = 0.3  # sqrt(g L): a run's steps are timed for at most the pelvis's pace plus this
+RUN_STEP_MOST = 1.1  # of the leg's length: the longest running step
 ARM_SWING = 0.6  # m/s of hand velocity per m/s of walking, given at each step
 
 
@@ -141,7 +142,9 @@ def step_timing(speed, leg, g):
     if v < 0.01:
         t = STILL_STEP * math.sqrt(leg / g)
         return 0.0, 0.0, t, t
-    step = step_length(v, leg, g)
+    # running faster, the step grows only as far as the leg reaches - a stance spanning
+    # from ahead of the hip to behind it, and a short flight - then the cadence does
+    step = min(step_length(v, leg, g), RUN_STEP_MOST * leg)
     period = step / v
     return v, step, period, swing_share(v, leg, g) * period
 
@@ -643,8 +646,20 @@ def control_gait(args, n_chars, gravity, dt):
         # run's flight, the 1.05 m child's foot hung 0.65 s in the air while the body sank
         # into a split over the other, planted far behind
         fly = t_fly
-        if best_stray:  # (no faster than STRAY_PACE: sent 0.5 m in 0.1 s, a foot flew on up to hip height)
+        if best_stray and not run:
+            # (no faster than STRAY_PACE: sent 0.5 m in 0.1 s, a foot flew on up to hip height)
             fly = min(t_fly, max(HURRY_TIME, math.sqrt(far) / (STRAY_PACE * math.sqrt(s))))
+        elif best_stray:
+            # running, down in the time it takes to fall from there, near where it is (a foot
+            # held a few cm up at the end of its step, its leg straight under a hip still high in
+            # the flight, was sent on a whole flight again to the next landing spot: every other
+            # step took two flights, the adult bounded at 1.9 steps/s), and no faster than
+            # STRAY_PACE
+            fly = min(t_fly, max(HURRY_TIME, math.sqrt(2.0 * (pos[i, 1] - radius[i]) / g)))
+            most = STRAY_PACE * math.sqrt(s) * fly
+            if far > most * most:
+                tx = pos[i, 0] + (tx - pos[i, 0]) * most / math.sqrt(far)
+                tz = pos[i, 2] + (tz - pos[i, 2]) * most / math.sqrt(far)
         move_time[i] = fly
         move_gravity[i] = MOVE_GAIT_ARC
         # ballistic: v0 = (target - p)/T - g' T / 2 lands on target at T under the arc's gravity
@@ -662,6 +677,11 @@ def control_gait(args, n_chars, gravity, dt):
             # a step from standing (or from a heel that did not come up first): the straight
             # leg folds at once, else it pushes the hip up and the body pitches or hops
             lead_knee(pos, prev, nd[L_HIP + best], kn, i, bx, bz, LEAD_FOLD * math.sqrt(s) * dt)
+        if best_stray and run:
+            # running, a foot brought down from a step that hung in the air finishes that step:
+            # counted as a new one, the other foot stepped again the moment it landed (the
+            # step clock and the turn its own), a second flight - a bound every other step
+            continue
         swing[c, best] = t_step
         last_step[c] = best
         steps[c] += 1
