@@ -97,3 +97,45 @@ def test_a_blow_moves_a_body_by_the_share_of_the_masses():
         assert mass_share(scene, child.entity, adult.entity) == pytest.approx(child.mass / adult.mass)
         assert mass_share(scene, adult.entity, child.entity) == 1.0, "at most its whole retreat"
         assert mass_share(scene, ball.entity, adult.entity) < 0.01, "a ball: a flinch on the spot"
+
+
+YARD = (
+    "twig: 1\nentities:\n"
+    "  - {name: parent, body: humanoid, height: 1.75, facing: 180, character: true}\n"
+    "  - {name: kid, body: humanoid, height: 1.35, position: [0, 0, -3], character: true,\n"
+    "     behaviors: [{use: attachment, caregiver: parent}]}\n"
+)
+
+
+def test_the_knock_figures_time_a_childs_bump_into_its_caregiver_but_not_its_own_walk_after(tmp_path):
+    from twig_ecs.knocks import KnockRecorder
+
+    path = tmp_path / "yard.yaml"
+    path.write_text(YARD)
+    with Scene.load(path) as scene:
+        parent, kid = scene.entity("parent"), scene.entity("kid")
+        kid.autonomous = False  # scripted: it runs into its parent
+        scene.run(0.5)
+        knocks = KnockRecorder(scene)
+        start = parent.position.copy()
+        kid.walk((0.0, 0.0, 3.0))
+        for _ in range(round(2.0 / scene.dt)):
+            scene.step()
+            knocks.step()
+            if knocks.touches and kid.walk_velocity[2] > 0.0:
+                kid.stop()
+        bumped = knocks.report()["caregivers"]["parent"]
+        moved = ground_gap(parent.position, start)
+        assert bumped["touches"] >= 1 and bumped["furthest"]["by"] == "kid"
+        assert 0.0 < bumped["furthest"]["moved_m"] < 0.5
+        assert bumped["furthest"]["moved_m"] == pytest.approx(moved, abs=0.05), "it measures the knock"
+        # the parent walks off on its own, the kid pressing after it: no knock
+        touches = bumped["touches"]
+        parent.walk((0.0, 0.0, 1.2))
+        kid.walk((0.0, 0.0, 1.6))
+        for _ in range(round(2.0 / scene.dt)):
+            scene.step()
+            knocks.step()
+        walked = knocks.report()["caregivers"]["parent"]
+        assert ground_gap(parent.position, start) > 1.5 and walked["touches"] > touches
+        assert walked["furthest"]["moved_m"] < 0.5
