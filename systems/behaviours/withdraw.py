@@ -14,8 +14,7 @@ and for less time by its square (a grown-up does not turn its back on a child th
 into it and walk off: it is soon back at what it was doing). A 65 kg parent
 knocked by a 30 kg child (7-11 J, past its pain threshold) went back 1.9-2.1 m; now it flinches
 a few tenths of a metre and stands its ground. A blow from a body as heavy or heavier, or from
-something fixed in place, makes the whole retreat as before. A lighter body bumping on into
-it while it still flinches from that body's last bump does not start the retreat over.
+something fixed in place, makes the whole retreat as before.
 
 Every retreating character of a step is proposed for and moved at once, over arrays
 (:func:`act_withdrawals`), with :meth:`Withdraw.act`'s arithmetic
@@ -94,17 +93,6 @@ class Withdraw(Behavior):
             away = away / norm if norm > 1e-6 else -me.facing
             now = scene.time
             share = mass_share(scene, event.source_body, event.body)
-            under_way = ctx.world.try_component(event.body, Withdrawing)
-            if (
-                share < 1.0
-                and under_way is not None
-                and under_way.until > now
-                and under_way.source == event.source_body
-            ):
-                # a lighter body bumping on into it while it still flinches from the last bump
-                # (a child running on into a grown-up's back) does not start the retreat over:
-                # renewed bump after bump, the retreats added up to 0.8 m
-                continue
             stagger = max(FLINCH, DURATION * share)
             # a new blow restarts the retreat (the component, if one is under way, is renewed)
             until = now + stagger + TURN_AWAY * share**2
