@@ -14,22 +14,19 @@ After the constraints, each character whose mid-spine lies in front of the plane
 hip bar and the neck has the mid-spine and pelvis reflected back through that plane; then
 one whose pelvis lies in front of the plane of the hip bar and the mid-spine has its pelvis
 reflected back through that one. A reflection keeps the lengths of the links to the nodes
-in the plane, and the moved nodes' velocities are kept as they were. Left alone: a body
-lying down or limp, and a stooping one (see :func:`right_way_out`).
+in the plane, and the moved nodes' velocities are kept as they were.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from twig_ecs.kernelmath import L_HIP, LIMP, NECK, PELVIS, R_HIP, SPINE
+from twig_ecs.kernelmath import L_HIP, NECK, PELVIS, R_HIP, SPINE
 
 #: How far in front of its plane (m at 1.75 m tall) a node must be to be inside out: at rest
 #: the mid-spine is 4.5 cm behind the hip-neck plane and the pelvis 2.9 cm behind the
 #: hip-spine one, and the links keep each within a few mm of that or of its mirror image.
 INSIDE_OUT = 0.01
-#: The least pelvis height (m at 1.75 m tall) of a body that is put back: about half its standing one.
-UP = 0.45
 
 
 def right_way_out(state) -> int:
@@ -39,15 +36,7 @@ def right_way_out(state) -> int:
     if count == 0:
         return 0
     rows = characters.nodes[:count]
-    scale = characters.scale[:count]
-    # only bodies up on their feet: lying on its back, the ground itself presses the pelvis and
-    # mid-spine up level with the hips and beyond (put back, they went into the ground again
-    # each step, and a limp body shook in the hands of one dragging it); and not stooping: the
-    # stoop's own pull on the pelvis takes it through and back, and put back there, a
-    # dragger reaching down took hold elsewhere and lifted its load (left for the posture)
-    up = (characters.mode[:count] != LIMP) & (state.nodes.pos[rows[:, PELVIS], 1] > UP * scale)
-    up &= characters.crouch[:count] <= 0.0
-    least = np.where(up, INSIDE_OUT * scale, np.inf)
+    least = INSIDE_OUT * characters.scale[:count]
     flipped = _reflect(state, rows, NECK, (SPINE, PELVIS), least)  # the lower back bowed forwards
     flipped |= _reflect(state, rows, SPINE, (PELVIS,), least)  # the pelvis through to the front
     return int(flipped.sum())
