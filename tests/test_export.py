@@ -148,14 +148,40 @@ def _parents_first(parent: dict[int, int], count: int) -> list[int]:
     return order
 
 
-def _errors(rebuilt: np.ndarray, simulated: np.ndarray) -> tuple[float, float]:
+def _mirrored(track: BodyTrack) -> np.ndarray:
+    """(F,) frames where the simulated pelvis has gone through to the front of the hip bar and
+    mid-spine: a known fault of the torso's links (its five nodes lie nearly in one plane, so
+    a mirror image keeps every link's length; session 19's note). No rotation of the rest
+    pelvis puts a hip joint there, so those frames cannot match and are judged apart."""
+    at = {name: k for k, name in enumerate(track.node_names)}
+
+    def side(p: np.ndarray) -> np.ndarray:
+        pelvis = p[..., at["pelvis"], :]
+        edges = [p[..., at[n], :] - pelvis for n in ("l_hip", "r_hip", "spine")]
+        return np.sign((np.cross(edges[0], edges[1]) * edges[2]).sum(-1))
+
+    return side(track.positions) != side(track.rest)
+
+
+def _errors(
+    rebuilt: np.ndarray, simulated: np.ndarray, track: BodyTrack | None = None
+) -> tuple[float, float]:
     e = np.linalg.norm(rebuilt - simulated, axis=-1)
+    if track is not None:
+        # (a doll lying on its back has it so throughout: the ground presses the pelvis up
+        # level with the hips; its errors stay small, the doll being small)
+        mirrored = _mirrored(track)
+        standing = track.name != "ragdoll"
+        assert not standing or mirrored.mean() < 0.1, (
+            f"the pelvis through to the front in {mirrored.sum()} frames"
+        )
+        e = e[~mirrored] if standing else e
     return float(np.median(e)), float(e.max())
 
 
 @pytest.mark.parametrize("figure", FIGURES)
 def test_glb_joint_positions_rebuilt_from_rotations_match_the_simulated_nodes(yard, gltf, figure):
-    median, worst = _errors(gltf["joints"][figure], _simulated(yard.tracks[figure]))
+    median, worst = _errors(gltf["joints"][figure], _simulated(yard.tracks[figure]), yard.tracks[figure])
     print(f"glb {figure}: median {median * 100:.3f} cm, worst {worst * 100:.3f} cm")
     assert median < MEDIAN_LIMIT and worst < WORST_LIMIT
 
@@ -170,7 +196,7 @@ def test_bvh_read_by_bvhio_matches_the_simulated_nodes(yard, figure):
     for f in range(len(simulated)):
         root.loadPose(f)
         rebuilt[f] = [tuple(joints[name].PositionWorld) for name, *_ in HUMANOID]
-    median, worst = _errors(rebuilt, simulated)
+    median, worst = _errors(rebuilt, simulated, yard.tracks[figure])
     print(f"bvh {figure}: median {median * 100:.3f} cm, worst {worst * 100:.3f} cm")
     assert median < MEDIAN_LIMIT and worst < WORST_LIMIT
 
