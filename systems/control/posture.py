@@ -27,7 +27,6 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from twig_ecs.components import Character
 from twig_ecs.kernelmath import (
     CARRY,
     HANG,
@@ -42,6 +41,7 @@ from twig_ecs.kernelmath import (
     NECK,
     PELVIS,
     R_FOOT,
+    R_HAND,
     R_HIP,
     R_KNEE,
     R_SHOULDER,
@@ -59,7 +59,7 @@ from twig_ecs.kernelmath import (
     yaw_error,
 )
 from twig_ecs.step import StepContext
-from twig_ecs.store import MOVE_GAIT_ARC, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import LINK_GRAB, MOVE_GAIT_ARC, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 from twig_ecs.systems.control.gait import DOWN, LEAD, MOST_AHEAD, heel_room, step_timing
 
@@ -622,13 +622,14 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
-        # which hands hold something: not put on a thigh as it gets up, nor swung in a run
-        # (only rising and running read it: looked up only when someone does either)
-        holding = np.zeros((ch.count, 2), dtype=np.bool_)
+        # which hands hold something (a grab joint from the hand): not put on a thigh as it
+        # gets up, nor swung in a run (only rising and running read it: looked up only then)
         if (ch.mode[: ch.count] == RISE).any() or self._running(ch, g):
-            for _, character in ctx.world.get_component(Character):
-                for side, hand in enumerate(("left", "right")):
-                    holding[character.index, side] = hand in character.holding
+            links = s.links
+            grabs = links.a[: links.count][(links.flags[: links.count] & LINK_GRAB) != 0]
+            holding = np.isin(ch.nodes[: ch.count, L_HAND : R_HAND + 1], grabs)
+        else:
+            holding = np.zeros((ch.count, 2), dtype=np.bool_)
         control_posture(columns(PostureColumns, n, ch), ch.count, g, dt, holding)
 
     @staticmethod
