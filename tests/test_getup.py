@@ -100,3 +100,61 @@ def test_a_character_held_down_gets_up_only_once_let_go_and_still_takes_its_time
     (rise,) = rises.report()["characters"]["p"]["rises"]
     # before: the rise's clock ran while it was held down, and it shot up in 0.6 s once let go
     assert rise["at_s"] >= let_go - 0.1 and rise["seconds"] >= SHORTEST, rise
+
+
+def _knocked_down(height: float, limp: float | None = None, shove=None) -> tuple[float, list[dict], float]:
+    """A ``height`` m character standing half a second, then knocked down: out cold (a ragdoll)
+    for ``limp`` s and told to stand wherever its fall has got to, or shoved at the shoulders
+    (``shove``: a force in N on each of the neck, shoulders and head for 0.2 s). Returns the
+    lowest pelvis share of standing height, its rises and its pelvis share 5 s later."""
+    with Scene.load("empty") as scene:
+        person = scene.spawn("humanoid", name="p", character=True, height=height)
+        scene.run(0.5)
+        rises = RiseRecorder(scene)
+        lowest = 1.0
+
+        def step() -> None:
+            nonlocal lowest
+            scene.step()
+            rises.step()
+            lowest = min(lowest, float(person.position[1]) / person.stand_height)
+
+        if limp is not None:
+            person.go_limp()
+            for _ in range(round(limp / scene.dt)):
+                step()
+            person.stand()
+        for _ in range(12 if shove is not None else 0):
+            for node in ("neck", "l_shoulder", "r_shoulder", "head"):
+                person.apply_force(node, shove)
+            step()
+        for _ in range(round(5.0 / scene.dt)):
+            step()
+        figures = rises.report()["characters"].get("p", {"rises": []})["rises"]
+        return lowest, figures, float(person.position[1]) / person.stand_height
+
+
+# out cold for long enough that the pelvis goes below 40% of standing height, told to stand while
+# it still falls (through the band where, before, it rose as from a seat: 0.6-0.75 s to 90%) or
+# once down; and shoved over (backwards, forwards, sideways, down and back)
+KNOCKS = {
+    1.75: [0.44, 0.46, 0.48, 0.6, 1.0],
+    1.35: [0.36, 0.38, 0.40, 0.42, 0.6],
+    1.05: [0.28, 0.30, 0.32, 0.4, 0.6],
+}
+SHOVES = [(0.0, 0.0, -800.0), (0.0, 0.0, 800.0), (800.0, 0.0, 0.0), (0.0, -1500.0, -600.0)]
+
+
+@pytest.mark.parametrize("height", sorted(KNOCKS))
+def test_a_character_knocked_down_takes_at_least_0_8_s_to_rise_from_every_fall(height):
+    falls = [dict(limp=t) for t in KNOCKS[height]] + [dict(shove=f) for f in SHOVES]
+    quick, went_down = [], 0
+    for fall in falls:
+        lowest, figures, end = _knocked_down(height, **fall)
+        went_down += lowest < DOWN
+        assert end > UP, f"{fall}: up again at the end"
+        quick += [(fall, rise) for rise in figures if rise["seconds"] < SHORTEST]
+    assert went_down >= len(KNOCKS[height]), "the knock-outs put the pelvis below 40% of standing"
+    # before: 1.75 m out cold 0.44-0.48 s, up in 0.62-0.75 s; 1.35 m 0.36-0.42 s, 0.60-0.75 s;
+    # 1.05 m 0.28-0.32 s, 0.62-0.72 s (told to stand mid-fall, it rose as from a seat)
+    assert not quick, f"rises quicker than {SHORTEST} s: {quick}"

@@ -297,6 +297,30 @@ def test_a_scuffle_is_face_to_face_and_the_victim_staggers_back_and_turns_away(t
     assert backed and turned_away, "hurt, it staggers back, then turns away"
 
 
+def test_a_fighter_does_not_chase_a_target_that_turns_its_back_and_walks_off(tmp_path, scenes):
+    scene = _scene(
+        tmp_path,
+        scenes,
+        "  - {name: big, body: humanoid, height: 1.35, position: [0, 0, 0], character: true}\n"
+        "  - {name: small, body: humanoid, height: 1.05, position: [0, 0, 1.5], facing: 180,\n"
+        "     character: true, pain: {threshold: 100}}\n",  # feels no blow: it leaves when told
+    )
+    big, small = (scene.character_handle(scene.entity(n).entity) for n in ("big", "small"))
+    small.autonomous = False
+    goal = big.grapple("small", duration=20.0)
+    scene.step(0)
+    while "fighting" not in goal.memory and scene.time < 10.0:
+        scene.step()
+    scene.run(1.0)
+    small.approach([0.0, 0.0, 8.0], stop_distance=0.3)  # turns its back and walks off
+    start, left = big.position.copy(), scene.time
+    while not goal.finished and scene.time < left + 5.0:
+        scene.step()
+    moved = float(np.hypot(*(big.position - start)[[0, 2]]))
+    assert moved < 0.3, f"the fighter followed the child walking off for {moved:.2f} m"
+    assert goal.status == "done" and scene.time - left < 3.0, "it has got away: the fight is over"
+
+
 @pytest.mark.soak  # reads the shared five-minute run (twig run schoolyard ... --report json)
 def test_twig_run_report_json_has_the_interaction_figures(yard_five_minutes):
     report = yard_five_minutes.report

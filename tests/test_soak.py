@@ -7,6 +7,8 @@ import pytest
 
 from twig_ecs import Scene
 from twig_ecs.cli import main
+from twig_ecs.knocks import MOST
+from twig_ecs.rises import DOWN, SHORTEST, UP
 from twig_ecs.soak import Health, SoakLimits
 
 
@@ -23,6 +25,26 @@ def test_five_minutes_of_schoolyard_stay_within_the_soak_limits(yard_five_minute
     assert 0.0 < report["max_penetration_m"] <= limits.max_penetration
     assert 0.0 < report["max_link_error"] <= limits.max_link_error
     assert 0.0 < report["max_kinetic_energy_j"] <= limits.max_energy
+
+
+@pytest.mark.soak  # reads the shared five-minute run
+def test_everyone_who_goes_down_in_five_minutes_of_schoolyard_takes_its_time_getting_up(yard_five_minutes):
+    # issue 34: every rise from a pelvis below 40% of standing height back above 90% takes at
+    # least 0.8 s - through a kneel or at the posture's get-up rate, never a puppet's pop
+    rises = yard_five_minutes.report["rises"]
+    assert (rises["down_share"], rises["up_share"]) == (DOWN, UP)
+    quick = {name: [r for r in figures["rises"] if r["seconds"] < SHORTEST]
+             for name, figures in rises["characters"].items()}  # fmt: skip
+    assert not any(quick.values()), f"rises quicker than {SHORTEST} s: {quick}"
+
+
+@pytest.mark.soak  # reads the shared five-minute run
+def test_no_child_moves_its_caregiver_half_a_metre_in_five_minutes_of_schoolyard(yard_five_minutes):
+    # issue 34: a child's kick or bump moves the parent in proportion to their masses - a few
+    # centimetres, never the 2 m a blow from its equal would
+    carers = yard_five_minutes.report["knocks"]["caregivers"]
+    assert carers["parent"]["touches"] > 0, "the children touched the parent (hugs, bumps)"
+    assert carers["parent"]["furthest"]["moved_m"] < MOST, carers
 
 
 def test_the_soak_stops_at_the_first_limit_crossed_and_names_frame_and_body(capsys):

@@ -5,7 +5,8 @@ ball touches, look-backs, fights, withdrawals, distance from the caregiver, what
 hand holds, the peak angular speed of anything that turns on an axle, and the contact
 figures of :mod:`twig_ecs.interactions` (kicks, pushes, hugs, carried things) and the
 torso figures of :mod:`twig_ecs.torso` (no fold beyond 35 degrees but right after a blow) and
-the rises of :mod:`twig_ecs.rises` (getting up takes a person's time). It can also write a
+the rises of :mod:`twig_ecs.rises` (getting up takes a person's time) and the knocks of
+:mod:`twig_ecs.knocks` (a child's kick or bump barely moves its caregiver). It can also write a
 per-step CSV trace and draw distance and anxiety over time with behaviour bands.
 """
 
@@ -20,6 +21,7 @@ import numpy as np
 
 from twig_ecs.components import Attachment, Character, Memory
 from twig_ecs.interactions import InteractionRecorder
+from twig_ecs.knocks import KnockRecorder
 from twig_ecs.rises import RiseRecorder
 from twig_ecs.scene import Scene
 from twig_ecs.steering import ground_distance
@@ -54,6 +56,7 @@ class StoryRecorder:
         self.interactions = InteractionRecorder(scene)
         self.torso = TorsoRecorder(scene)
         self.rises = RiseRecorder(scene)
+        self.knocks = KnockRecorder(scene)
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
@@ -97,6 +100,7 @@ class StoryRecorder:
         self.interactions.step()
         self.torso.step()
         self.rises.step()
+        self.knocks.step()
 
     def _spin(self, name: str) -> float:
         """Angular speed (rad/s) of an axled body about its axle, from one free node."""
@@ -144,6 +148,7 @@ class StoryRecorder:
             "interactions": self.interactions.report(),
             "torso": self.torso.report(),
             "rises": self.rises.report(),
+            "knocks": self.knocks.report(),
         }
 
     def write_trace(self, path: str | Path) -> None:

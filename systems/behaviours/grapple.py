@@ -4,8 +4,9 @@ Goal-driven (``character.grapple(target, duration=3)``): approach with the arms 
 (the grapple pose), then, standing square to the target within arm's reach, a shove
 with both hands to its chest and blows at its chest and head, one hand then the other -
 impacts that hurt it (its pain withdrawal may well win: it staggers back and turns
-away). It steps after a target that backs off, at a walk; one that gets away (out of
-reach for ``LET_GO`` seconds) ends the fight. Done after ``duration`` seconds of
+away). It steps after a target that backs off still facing it, at a walk, and stands
+guard, never chasing, while the target's back is turned; one that gets away (out of reach
+or turned away for ``LET_GO`` seconds) ends the fight. Done after ``duration`` seconds of
 fighting within reach, or when the target gets away; failed if it cannot get to it.
 
 A batch behaviour: every grappler of a step acts in one pass over arrays (:func:`act_grapples`,
@@ -99,6 +100,17 @@ class Grapple(Behavior):
                 m.pop("best", None)
             return
         gap = ground_distance(character.position, other.position)
+        away = _unit((character.position - other.position) * np.array([1.0, 0.0, 1.0]))
+        if hasattr(other, "facing") and float(other.facing @ away) < TURNED_AWAY:
+            # turned away (it flinched, it is leaving), near or already a step off: no blows at
+            # its side or back and no chase, guard up; the fight's clock waits, and if it stays
+            # turned away it has got away (the straight-legged fighter, a step behind, went on
+            # hitting a child walking off; stepping after it, it caught up with the flinch)
+            character.pose("grapple")
+            character.stop()
+            if now - m["in_reach"] > LET_GO:
+                self.finish(character, goal)
+            return
         if gap > 1.3 * ARMS_LENGTH * scale:
             # it backed off: step after it with the arms up; blows and the fight's clock
             # wait, and if it stays out of reach it has got away
@@ -108,16 +120,6 @@ class Grapple(Behavior):
                 return
             toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
             character.walk(tuple(toward * FOLLOW * scale**0.5))
-            return
-        away = _unit((character.position - other.position) * np.array([1.0, 0.0, 1.0]))
-        if hasattr(other, "facing") and float(other.facing @ away) < TURNED_AWAY:
-            # turned away (it flinched, it is leaving): no blows at its side or back, guard up;
-            # the fight's clock waits, and if it stays turned away it has got away (the
-            # straight-legged fighter, a step behind, went on hitting a child walking off)
-            character.pose("grapple")
-            character.stop()
-            if now - m["in_reach"] > LET_GO:
-                self.finish(character, goal)
             return
         m["in_reach"] = now
         if gap > ARMS_LENGTH * scale:
@@ -266,14 +268,14 @@ def _act_packed(grapple: Behavior, table: RowTable, rows: list[int], entities: l
     # -- the fight: within reach, edging in, or stepping after a target that backed off --
     gap = ground_gaps(here[fights], there[fights])
     s = scale[fights]
-    away = gap > 1.3 * ARMS_LENGTH * s
-    # within reach but turned away (CharacterHandle.facing: (left hip - right hip) x up): guard
-    # up, standing, no blows, the fight's clock waiting
+    # turned away, near or a step off (CharacterHandle.facing: (left hip - right hip) x up):
+    # guard up, standing, no blows and no chase, the fight's clock waiting
     tf = theirs[fights]
     hips = pos[tf[:, L_HIP]] - pos[tf[:, R_HIP]]
     facing = units(np.stack([-hips[:, 2], np.zeros(len(fights)), hips[:, 0]], axis=1))
     back = units((here[fights] - there[fights]) * GROUND)
-    turned = ~away & (np.einsum("ij,ij->i", facing, back) < TURNED_AWAY)
+    turned = np.einsum("ij,ij->i", facing, back) < TURNED_AWAY
+    away = ~turned & (gap > 1.3 * ARMS_LENGTH * s)  # backed off, facing it: step after it
     let_go = np.array([now - memories[k]["in_reach"] > LET_GO for k in fights.tolist()], dtype=bool)
     let_go &= away | turned
     toward = units((there[fights] - here[fights]) * GROUND)

@@ -4,8 +4,20 @@ Reads this step's ``pain`` events; when a character is hurt it staggers back fro
 body that hurt it - for ``DURATION`` seconds it backs off at ``SPEED`` with its arms up
 and its eyes on the source - then turns its back on it and walks away for ``TURN_AWAY``
 seconds. Its activation beats any commanded goal, so it wins at once; afterwards the
-interrupted goal carries on. Every retreating character of a step is proposed for and moved
-at once, over arrays (:func:`act_withdrawals`), with :meth:`Withdraw.act`'s arithmetic
+interrupted goal carries on.
+
+The retreat is in proportion to the masses (issue 34: "impacts move bodies in proportion to
+their masses"): struck by a body lighter than itself - a child running into a grown-up, a
+ball - it staggers back slower and for less time, both by the share ``source mass / own
+mass`` (at most 1), so that distance goes by its square; it walks away slower by the share
+and for less time by its square (a grown-up does not turn its back on a child that bumped
+into it and walk off: it is soon back at what it was doing). A 65 kg parent
+knocked by a 30 kg child (7-11 J, past its pain threshold) went back 1.9-2.1 m; now it flinches
+a few tenths of a metre and stands its ground. A blow from a body as heavy or heavier, or from
+something fixed in place, makes the whole retreat as before.
+
+Every retreating character of a step is proposed for and moved at once, over arrays
+(:func:`act_withdrawals`), with :meth:`Withdraw.act`'s arithmetic
 (tests/test_brawl_batch.py compares the two).
 """
 
@@ -19,6 +31,7 @@ from twig_ecs.behavior import Behavior, Mind, register
 from twig_ecs.components import Body, Character
 from twig_ecs.kernelmath import GAZE_AHEAD, GAZE_NODE, GRAPPLE, HANG, SIT, SPINE
 from twig_ecs.step import StepContext
+from twig_ecs.store import NODE_LOCKED
 from twig_ecs.systems.behaviours.arrays import roots, walkable
 
 
@@ -30,13 +43,32 @@ class Withdrawing:
     stagger_until: float  # s the stagger back, facing the source, ends; it walks away after
     away: np.ndarray  # unit vector on the ground away from the source
     source: int  # entity of the body that hurt it
+    share: float = 1.0  # the source's mass over its own (at most 1): speeds and times are scaled by it
 
 
 DURATION = 0.8  # s of retreat per blow
 SPEED = 1.6  # m/s at 1.75 m tall; smaller bodies go slower (the root of their scale): their steps are shorter
 TURN_AWAY = 1.2  # s of walking away afterwards, its back to the source
 AWAY_PACE = 0.9  # m/s (at 1.75 m tall, by the root of scale like SPEED)
+FLINCH = 0.25  # s: the shortest stagger, however light what hurt it (a flinch reads)
 ACTIVATION = 1.3  # beats goals (0.8) by more than select_behavior's URGENT margin
+
+
+def mass_share(scene, source: int, body: int) -> float:
+    """How far a blow from ``source`` sends ``body`` back: the source's mass over the body's,
+    at most 1 (1 too for a source fixed in place - every node locked: a post, a fence - or
+    for a source or body without nodes)."""
+    theirs = scene.world.try_component(source, Body)
+    mine = scene.world.try_component(body, Body)
+    if theirs is None or mine is None:
+        return 1.0
+    nodes = scene.state.nodes
+    rows = slice(theirs.node_start, theirs.node_start + len(theirs.node_names))
+    if (nodes.flags[rows] & NODE_LOCKED).all():  # (a character's planted foot is locked too: all)
+        return 1.0
+    heavy = float(nodes.mass[rows].sum())
+    own = float(nodes.mass[mine.node_start : mine.node_start + len(mine.node_names)].sum())
+    return min(1.0, heavy / own) if own > 0.0 else 1.0
 
 
 @register
@@ -60,9 +92,13 @@ class Withdraw(Behavior):
             norm = float(np.linalg.norm(away))
             away = away / norm if norm > 1e-6 else -me.facing
             now = scene.time
+            share = mass_share(scene, event.source_body, event.body)
+            stagger = max(FLINCH, DURATION * share)
             # a new blow restarts the retreat (the component, if one is under way, is renewed)
-            ctx.world.add_component(event.body, Withdrawing(now + DURATION + TURN_AWAY, now + DURATION, away,
-                                                        event.source_body))  # fmt: skip
+            until = now + stagger + TURN_AWAY * share**2
+            ctx.world.add_component(
+                event.body, Withdrawing(until, now + stagger, away, event.source_body, share)
+            )
         super().run(ctx)
 
     def candidates(self) -> list[tuple[int, Mind]]:
@@ -97,13 +133,13 @@ class Withdraw(Behavior):
         retreat = self.world.component_for_entity(character.entity, Withdrawing)
         away = retreat.away
         if retreat.stagger_until > self.scene.time:
-            character.walk(away * SPEED * character.scale**0.5)
+            character.walk(away * SPEED * retreat.share * character.scale**0.5)
             character.pose("grapple")
             source = self.scene.name_of(retreat.source)
             if source and source != character.name:
                 character.look_at(source)
             return
-        character.walk(away * AWAY_PACE * character.scale**0.5)  # facing where it goes
+        character.walk(away * AWAY_PACE * retreat.share * character.scale**0.5)  # facing where it goes
         character.pose("hang")
         character.look_at(None)
 
@@ -129,7 +165,7 @@ def act_withdrawals(withdraw: Behavior, rows: list[int], entities: list[int]) ->
     crows = np.array(rows, dtype=np.int64)
     staggering = np.array([r.stagger_until > now for r in retreats], dtype=bool)
     away = np.array([r.away for r in retreats], dtype=np.float64).reshape(-1, 3)
-    root = roots(ch.scale[crows])
+    root = roots(ch.scale[crows]) * np.array([r.share for r in retreats])
     walk = np.where(staggering[:, None], away * SPEED * root[:, None], away * AWAY_PACE * root[:, None])
     limit = np.array([world.component_for_entity(e, Character).max_speed for e in entities])
     if not walkable(walk, limit):

@@ -65,8 +65,10 @@ STANCE_SLACK = 0.12  # m: standing still, a foot this far from under its hip ste
 STRETCH = 0.998  # a planted leg behind its hip stretched to this fraction of its length steps at once
 STILL_SKIP = 0.15  # of the leg's length: standing, a re-step shorter than this is not taken
 STILL_PACE = 0.15  # m/s (at 1.75 m): a pelvis moving slower than this is standing still
-DOWN = 0.3  # of standing height: a pelvis below it is down on the ground (it gets up through a kneel:
-# posture.py; from higher, a deep fold, it rises at the posture's GET_UP rate)
+DOWN = 0.4  # of standing height: a pelvis below it is down on the ground (told to stand, it gets up
+# through a kneel: posture.py; a standing one folded from higher rises at the posture's GET_UP rate).
+# 0.4, the share below which twig_ecs.rises counts a character down: at 0.3 a ragdoll stood up with
+# its pelvis at 30-40% rose as from a seat, 0.8 s to full height - 0.6-0.75 s to 90% (issue 34)
 WALK_HEIGHT = 1.0  # of a planted leg's length: how far its hip rides from its foot at a walk (straight)
 HEEL_RISE = 0.16  # of the leg's length: the most a trailing foot's heel comes up in double support
 HEEL_DROP = 1.0  # leg lengths per second: how fast a heel no longer held up comes down

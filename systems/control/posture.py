@@ -115,11 +115,11 @@ RIGHTING_SPAN = math.sin(MAX_PITCH + math.radians(10.0)) - math.sin(MAX_PITCH)
 MAX_TWIST = math.radians(85.0)  # shoulders' largest turn from the pelvis
 RISE_TIME = 0.8  # s to stand up from sitting
 # getting up from the ground (a ragdoll told to stand, its pelvis below DOWN of its standing
-# height) rises through a kneel as a person does - up to KNEEL of standing in KNEEL_TIME, a
-# pause there, then up in STAND_UP_TIME - not the 0.2 s pop of the height control pulling
-# straight to standing (issue 34). (A standing character that falls does not yet: with that,
-# the goal melee's kneeling adults pressed into dolls on the ground, 12.9 cm - branch
-# i34-fights-getup)
+# height, or going below it while it rises) rises through a kneel as a person does - up to
+# KNEEL of standing in KNEEL_TIME, a pause there, then up in STAND_UP_TIME - not the 0.2 s pop
+# of the height control pulling straight to standing (issue 34). (A standing character that
+# falls does not yet: with that, the goal melee's kneeling adults pressed into dolls on the
+# ground, 12.9 cm - branch i34-fights-getup; it rises at the GET_UP rate instead)
 KNEEL = 0.55
 KNEEL_TIME, KNEEL_HOLD, STAND_UP_TIME = 0.5, 0.3, 0.8
 RISE_LAG = 0.15  # of standing height: a pelvis this far below the rise's target holds its clock
@@ -292,6 +292,14 @@ def control_posture(args, n_chars, gravity, dt, holding):
         nd = nodes[c]
         p = nd[PELVIS]
         from_ground = seat[c, 1] < DOWN * stand_height[c]  # (rising: from the ground, not a seat)
+        if mode[c] == RISE and not from_ground and pos[p, 1] < DOWN * stand_height[c]:
+            # told to stand while still falling (a ragdoll stood up mid-fall): the "seat" was the
+            # pelvis in the air, and the seat's 0.8 s rise from there popped it up off the ground
+            # in 0.6 s (issue 34). Down on the ground now: it gets up from here, through a kneel
+            for k in range(3):
+                seat[c, k] = pos[p, k]
+            mode_time[c] = 0.0
+            from_ground = True
         if mode[c] == RISE and mode_time[c] > (GETUP_TIME if from_ground else RISE_TIME):
             mode[c] = STAND
             mode_time[c] = 0.0
