@@ -31,7 +31,6 @@ from twig_ecs.store import (
     gripped_nodes,
 )
 from twig_ecs.system import System
-from twig_ecs.systems.physics.torso import right_way_out
 from twig_ecs.threads import PARALLEL_BODIES
 
 #: Speed (m/s) at which a new grab joint draws its two nodes together.
@@ -744,8 +743,7 @@ def ease_grabs(flags, rest, min_rest, count, step):
 
 
 class ConstrainSystem(System):
-    """Projects links, grab joints, joint limits, axles and the ground plane, and turns a torso
-    that went inside out the right way out (systems/physics/torso.py)."""
+    """Projects links, grab joints, joint limits, axles and the ground plane."""
 
     name = "constrain"
 
@@ -756,4 +754,3 @@ class ConstrainSystem(System):
         links = ctx.state.links
         ease_grabs(links.flags, links.rest, links.min_rest, links.count, GRAB_CLOSING * dt)
         solve_constraints(ctx.settings.iterations, constraints_of(ctx.state))
-        right_way_out(ctx.state)  # (links cannot tell a torso from its mirror image)
