@@ -25,12 +25,18 @@ def _arm_colliders(scene, name: str, hand: str) -> np.ndarray:
     return rows[[int(col.a[c]) in arm or int(col.b[c]) in arm for c in rows]]
 
 
-def test_a_hand_holding_a_hand_passes_what_that_hand_holds(scenes):
+def _three_in_a_row(scenes) -> Scene:
+    """Ann, Bob and Cat side by side in the empty scene, settled."""
     scene = Scene.load("empty")
     scenes.append(scene)
     for name, x in (("ann", -0.8), ("bob", 0.0), ("cat", 0.8)):
         scene.spawn("humanoid", name=name, position=(x, 0, 0), facing=90, character=True)
     scene.run(0.2)
+    return scene
+
+
+def test_a_hand_holding_a_hand_passes_what_that_hand_holds(scenes):
+    scene = _three_in_a_row(scenes)
     scene.grab("bob", "r_hand", "cat", "spine")  # bob holds cat
     scene.grab("ann", "l_hand", "bob", "r_hand")  # ann takes the wrist of that hand
     scene.step()  # (the collider table is made again at the next step)
@@ -49,11 +55,7 @@ def test_a_hand_holding_a_hand_passes_what_that_hand_holds(scenes):
 
 
 def test_letting_go_of_the_first_grip_ends_the_chain(scenes):
-    scene = Scene.load("empty")
-    scenes.append(scene)
-    for name, x in (("ann", -0.8), ("bob", 0.0), ("cat", 0.8)):
-        scene.spawn("humanoid", name=name, position=(x, 0, 0), facing=90, character=True)
-    scene.run(0.2)
+    scene = _three_in_a_row(scenes)
     held = scene.grab("bob", "r_hand", "cat", "spine")
     scene.grab("ann", "l_hand", "bob", "r_hand")
     scene.step()
