@@ -48,11 +48,12 @@ def run_into(runner_height: float, stood_height: float, speed: float, keep_on: f
         return furthest, hurt
 
 
-@pytest.mark.parametrize("speed, keep_on", [(3.0, 0.25), (2.0, 0.25), (1.5, 0.8)])
+@pytest.mark.parametrize("speed, keep_on", [(3.0, 0.25), (2.5, 0.25), (1.5, 0.8)])
 def test_a_child_running_into_a_grown_up_moves_it_less_than_half_a_metre(speed, keep_on):
     # a 1.35 m child (30 kg) knocks a 1.75 m grown-up (65 kg): it hurts (a blow past its
     # pain threshold), and a blow from a body half its weight makes it flinch, not back off
-    # and walk away (before: 1.86, 2.13 and 2.1 m)
+    # and walk away (before: 1.86, 2.13 and 2.1 m). (At 2.0 m/s, with the run's arms bent and
+    # swinging since issue 35, the knock no longer hurts: it moves the grown-up 6 cm.)
     moved, hurt = run_into(1.35, 1.75, speed, keep_on)
     assert hurt, "the knock hurt: the grown-up's pain reflex is what is measured"
     assert moved < 0.5, f"moved {moved:.2f} m"

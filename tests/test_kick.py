@@ -131,3 +131,64 @@ def test_the_child_lines_up_to_kick_without_straddling_or_circling_the_ball(play
     assert np.mean(times) <= 5.0 and max(times) <= 8.0, (
         f"it spent {np.round(times, 1)} s by the ball before each kick"
     )
+
+
+# -- a small child tied to its caregiver, coming out from it to a ball further out ----------------
+
+FROM_HOME = (
+    "twig: 1\nentities:\n"
+    "  - {name: parent, body: humanoid, height: 1.75, position: [0, 0, 0], character: true}\n"
+    "  - {name: kid, body: humanoid, height: 1.05, position: [0.3, 0, 1.0], character: true,\n"
+    "     behaviors: [{use: attachment, caregiver: parent, safe_distance: 2.5},\n"
+    "                 {use: play, toy: ball, joy: 0.55, speed: 1.4}]}\n"
+    "  - {name: ball, body: ball, position: [BALL]}\n"
+)
+# two fences meeting in a corner 5 m out from the parent on either side (a yard x -5..5, z -5..5)
+CORNER = (
+    "  - {name: fence_s0, body: fence, position: [-5, 0, -5], facing: 0}\n"
+    "  - {name: fence_s1, body: fence, position: [0, 0, -5], facing: 0}\n"
+    "  - {name: fence_w0, body: fence, position: [-5, 0, -5], facing: -90}\n"
+    "  - {name: fence_w1, body: fence, position: [-5, 0, 0], facing: -90}\n"
+)
+
+
+def first_kick_from_home(path, seed: int, seconds: float = 15.0) -> tuple[float | None, float, float]:
+    """When the child's first kick began (None: not in ``seconds``); how far beyond the
+    ball, seen from the parent, it went before then (m; negative: never past it); and how
+    far the ball lay from where it started 1 s after the kick began (m)."""
+    from twig_ecs.systems.behaviours.play import Kicking
+
+    with Scene.load(path, seed=seed) as scene:
+        kid, ball, parent = (scene.character_handle(scene.entity("kid").entity), scene.entity("ball"),
+                             scene.entity("parent"))  # fmt: skip
+        start, beyond, kicked = ball.position.copy(), -np.inf, None
+        while scene.time < (seconds if kicked is None else kicked + 1.0):
+            scene.step()
+            game = scene.world.try_component(kid.entity, Kicking)
+            if kicked is None and game is not None and game.phase:
+                kicked = scene.time
+            if kicked is None:
+                home = parent.position[[0, 2]]
+                out = np.hypot(*(kid.position[[0, 2]] - home)) - np.hypot(*(ball.position[[0, 2]] - home))
+                beyond = max(beyond, float(out))
+        return kicked, beyond, float(np.hypot(*(ball.position - start)[[0, 2]]))
+
+
+@pytest.mark.parametrize(
+    ("ball", "fences", "seed"),
+    [("1.0, 0, 6.0", "", 0), ("-4.0, 0, 4.5", "", 1), ("-4.3, 0, -4.4", CORNER, 0)],
+    ids=["ahead", "aside", "corner"],
+)
+def test_a_child_coming_from_its_caregiver_kicks_a_ball_further_out_from_its_own_side(
+    tmp_path, ball, fences, seed
+):
+    # its kicks aim near the caregiver, so the kicking spot lies on the ball's far side;
+    # going round to it took the child further from home (in the yard's corners its
+    # anxiety sent it home first): it kicks the ball on from the side it came from instead
+    path = tmp_path / "from_home.yaml"
+    path.write_text(FROM_HOME.replace("BALL", ball) + fences)
+    kicked, beyond, moved = first_kick_from_home(path, seed)
+    assert kicked is not None and kicked < 10.0, "it kicks the ball soon after reaching it"
+    # never further from home than the ball (before, 0.31 and 0.16 m: round its far side)
+    assert beyond < 0.0, f"it went {beyond:.2f} m round the far side of the ball before kicking it"
+    assert moved > 0.3, f"the kick moved the ball {moved:.2f} m"

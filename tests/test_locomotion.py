@@ -192,6 +192,49 @@ def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, 
     assert all(a != b for a, b in zip(feet, feet[1:], strict=False)), f"a foot landed twice in a row: {feet}"
 
 
+def test_a_runner_bends_its_elbows_and_swings_its_arms_against_its_legs(scenes, adult_walks):
+    # before (issue 35): a runner's arms hung from the shoulders as a walker's do, kicked on at
+    # each step - median elbow flexion 10 and 31 degrees at 2.5 m/s (a person's: ~90)
+    scene = Scene.load("empty")
+    scenes.append(scene)
+    adult = scene.spawn("humanoid", name="a", height=1.75, character=True)
+    scene.run(0.5)
+    adult.walk((0.0, 0.0, 2.5))
+    scene.run(2.0)
+    track = walklab.record(adult, 3.0)
+    elbows = np.median(walklab.elbow_flexion(track), axis=0)
+    assert np.all((elbows >= 60.0) & (elbows <= 120.0)), f"elbows bent {elbows.round()} deg (before: 10, 31)"
+    assert walklab.arm_phase(track) <= -0.7, "each hand goes forward as its own foot goes back"
+    walking = adult_walks[1.2]
+    assert walking["elbow"] <= 25.0, f"walking, the arms hang nearly straight ({walking['elbow']:.0f} deg)"
+    assert walking["arm_phase"] <= -0.7, "and swing against the legs too"
+
+
+def test_a_child_running_with_its_doll_keeps_it_held_and_swings_the_other_arm(tmp_path, scenes):
+    # the hand that holds the doll keeps its carry pose (elbow ~55 deg); only the free arm
+    # takes up the run's bent swing (before: it hung, elbow ~13 deg)
+    path = tmp_path / "scene.yaml"
+    path.write_text(
+        "twig: 1\nentities:\n"
+        "  - {name: child, body: humanoid, height: 1.05, position: [0, 0, 0], facing: 0,\n"
+        "     character: {hold: doll}}\n"
+        "  - {name: doll, body: ragdoll, position: [0.144, 0.227, 0.0], facing: 0}\n"
+    )
+    scene = Scene.load(path)
+    scenes.append(scene)
+    child = scene.character_handle(scene.entity("child").entity)
+    child.walk((0.0, 0.0, 2.2))
+    scene.run(1.0)
+    track = walklab.record(child, 2.0)
+    held, free = np.median(walklab.elbow_flexion(track), axis=0)
+    assert child.holding == {"left": "doll"}, "it still holds the doll"
+    assert child.arm_modes == {"left": "carry", "right": "hang"}
+    assert 35.0 <= held <= 75.0, f"the doll held up before the belly (elbow {held:.0f} deg)"
+    assert 60.0 <= free <= 120.0, f"the free arm bent as a runner's (elbow {free:.0f} deg; before: 13)"
+    doll = scene.entity("doll").node("spine")
+    assert np.linalg.norm(doll - child.node("l_hand")) < 0.05, "the doll is in the hand"
+
+
 @pytest.mark.parametrize("speed", [2.2, 2.3, 2.4])
 def test_an_adult_runs_just_past_the_walk_with_even_steps_not_bounds(speed):
     # before (issue 35): asked 2.2-2.4 m/s the adult bounded - 1.74-1.94 steps/s, airborne about

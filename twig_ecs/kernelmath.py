@@ -63,12 +63,19 @@ WALK_SHARE, RUN_SHARE, RUN_BLEND = 0.8, 1.2, 0.15
 
 
 @njit(cache=True, inline="always")
+def run_share(speed, leg, g):
+    """How much of a run a pace of ``speed`` (already capped) is: 0 walking, 1 running,
+    blended over RUN_BLEND of Froude number round the transition (the flight, the run's
+    steps, its arms and its lean all come in together)."""
+    fr = speed * speed / (g * leg)
+    return min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
+
+
+@njit(cache=True, inline="always")
 def swing_share(speed, leg, g):
     """How long a foot is in the air per step period at a pace of ``speed`` (already capped):
     under 1 it walks (a double support), over 1 it runs (a flight)."""
-    fr = speed * speed / (g * leg)
-    k = min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
-    return WALK_SHARE + (RUN_SHARE - WALK_SHARE) * k
+    return WALK_SHARE + (RUN_SHARE - WALK_SHARE) * run_share(speed, leg, g)
 
 
 @njit(cache=True, inline="always")
@@ -80,7 +87,7 @@ def step_length(speed, leg, g):
     walk = min(by_froude, speed * MAX_STEP_PERIOD * math.sqrt(leg / g))
     # running, shorter steps at a quicker cadence than the walk's, blended in over the
     # transition as the flight is (swing_share)
-    k = min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
+    k = run_share(speed, leg, g)
     if k <= 0.0:
         return walk
     run = leg * RUN_STEP_GAIN * (fr / WALK_FROUDE_MAX) ** RUN_STEP_POWER

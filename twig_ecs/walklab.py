@@ -16,7 +16,10 @@ from pathlib import Path
 import numpy as np
 
 #: Nodes a track records.
-TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot")
+TRACKED = ("pelvis", "neck", "l_hip", "r_hip", "l_knee", "r_knee", "l_foot", "r_foot",
+           "l_shoulder", "r_shoulder", "l_elbow", "r_elbow", "l_hand", "r_hand")  # fmt: skip
+#: The side-view contact sheets ``--sheet`` writes: (file suffix, what, height m, speed m/s).
+SHEETS = (("", "walk", 1.75, 1.2), ("-run", "run", 1.75, 2.5))
 #: Body heights (m) the lab measures: a small child, a big child, an adult.
 SIZES = (1.05, 1.35, 1.75)
 #: Speeds (m/s) the lab asks each size for: walks, and runs (2.4 m/s: Froude 0.6-1.1; 3.0 m/s:
@@ -69,6 +72,26 @@ def torso_pitch(track: Track) -> np.ndarray:
     return np.degrees(np.arctan2(horizontal, v[:, 1]))
 
 
+def elbow_flexion(track: Track) -> np.ndarray:
+    """Elbow flexion (degrees, 0 = straight) per step, left and right: (steps, 2)."""
+    return np.stack([knee_flexion(track.pos[f"{s}_shoulder"], track.pos[f"{s}_elbow"], track.pos[f"{s}_hand"])
+                     for s in "lr"], axis=1)  # fmt: skip
+
+
+def arm_phase(track: Track) -> float:
+    """How the arms swing against the legs: the correlation of each hand's and the same-side
+    foot's lead over the pelvis along the walk, averaged over both sides (-1: the hand
+    forwards as its own foot goes back - opposite the legs, as a person's; NaN: no swing)."""
+    out = []
+    for s in "lr":
+        hand = (track.pos[f"{s}_hand"] - track.pos["pelvis"]) @ track.heading
+        foot = (track.pos[f"{s}_foot"] - track.pos["pelvis"]) @ track.heading
+        if hand.std() < 1e-9 or foot.std() < 1e-9:
+            return math.nan
+        out.append(float(np.corrcoef(hand, foot)[0, 1]))
+    return float(np.mean(out))
+
+
 def touchdowns(track: Track) -> list[tuple[int, int]]:
     """(step, foot) of every touchdown: a foot becoming planted."""
     out = []
@@ -85,7 +108,9 @@ def foot_moves(track: Track) -> int:
 
 
 def walk_figures(track: Track) -> dict[str, float]:
-    """Cadence, step length, stance knee flexion, pelvis height, double support, foot lift."""
+    """Cadence, step length, stance knee flexion, pelvis height, double support, foot lift;
+    the elbows' median flexion, the arms' swing against the legs (:func:`arm_phase`) and the
+    torso's median pitch."""
     downs = touchdowns(track)
     seconds = len(track.locked) * track.dt
     out: dict[str, float] = {}
@@ -146,6 +171,11 @@ def walk_figures(track: Track) -> dict[str, float]:
     ahead = [float((feet[f][k] - track.pos[("l_hip", "r_hip")[f]][k]) @ track.heading) for k, f in downs]
     out["ahead"] = float(np.median(ahead)) if ahead else 0.0
     out["speed"] = float((track.pos["pelvis"][-1] - track.pos["pelvis"][0]) @ track.heading / seconds)
+    # what a viewer notices of the upper body: bent or straight arms, swung with or against the
+    # legs, and the lean
+    out["elbow"] = float(np.median(elbow_flexion(track)))
+    out["arm_phase"] = arm_phase(track)
+    out["pitch"] = float(np.median(torso_pitch(track)))
     return out
 
 
@@ -257,6 +287,9 @@ HUMAN = {
     "double": "~0.20 at a normal walk, less faster; none running",
     "flight": "0 walking; running 0.1-0.3 (both feet up)",
     "twice": "0 (feet take turns: no foot lands twice in a row)",
+    "elbow": "walking nearly straight (~10-30 deg); running ~90",
+    "arms": "swung opposite the legs (arm r, hand against same-side foot: near -1)",
+    "pitch": "walking upright to a few deg forward; running 5-10 deg into the pace",
     "lift": "a few cm at the toe, visibly at the heel",
     "uturn": "upright: a few degrees (<= 30 here)",
     "idle": "0 (step only when balance needs it)",
@@ -281,7 +314,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
     lines = ["Walk (straight, level ground; medians over 5 s after 2.5 s to get going)", ""]
     head = (f"{'height':>6} {'asked':>5} {'got':>5} {'Fr':>5} {'steps/s':>7} {'step m':>6} {'step/L':>6} "
             f"{'knee':>5} {'pelvis':>6} {'bob cm':>6} {'double':>6} {'flight':>6} {'lift cm':>7} "
-            f"{'ahead cm':>8} {'pace -%':>7} {'pace +%':>7} {'L/R %':>5} {'twice':>5}")  # fmt: skip
+            f"{'ahead cm':>8} {'pace -%':>7} {'pace +%':>7} {'L/R %':>5} {'twice':>5} {'elbow':>5} "
+            f"{'arm r':>5} {'pitch':>5}")  # fmt: skip
     lines += [head, "-" * len(head)]
     for r in rows:
         lines.append(
@@ -290,7 +324,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
             f"{100 * r['bob']:6.1f} {r['double']:6.2f} {r.get('flight', 0.0):6.2f} {100 * r['lift']:7.1f} "
             f"{100 * r['ahead']:8.1f} {100 * (1.0 - r.get('pace_low', 1.0)):7.0f} "
             f"{100 * (r.get('pace_high', 1.0) - 1.0):7.0f} {100 * r.get('step_lr', 0.0):5.1f} "
-            f"{r.get('twice', 0.0):5.0f}"
+            f"{r.get('twice', 0.0):5.0f} {r.get('elbow', math.nan):5.0f} {r.get('arm_phase', math.nan):5.2f} "
+            f"{r.get('pitch', math.nan):5.1f}"
         )
     lines += [
         "",
@@ -315,7 +350,8 @@ def format_report(rows, uturns: dict[float, float], idle: dict[str, int],
 def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, frames: int = 12,
                   every: float = 0.1, size: tuple[int, int] = (320, 320),
                   columns: int = 6) -> Path:  # fmt: skip
-    """A side-view contact sheet PNG of a ``height`` m character walking at ``speed`` m/s."""
+    """A side-view contact sheet PNG of a ``height`` m character walking (or running) at
+    ``speed`` m/s."""
     from twig_ecs.graphics.camera import OrbitCamera
     from twig_ecs.graphics.offscreen import check_output
     from twig_ecs.graphics.offscreen import contact_sheet as draw_sheet
@@ -338,16 +374,33 @@ def contact_sheet(output: str | Path, height: float = 1.75, speed: float = 1.2, 
         scene.close()
 
 
+def sheet_paths(sheet: str | Path) -> list[Path]:
+    """Where ``--sheet FILE.png`` puts each of :data:`SHEETS`: the walk at FILE.png, the run
+    beside it at FILE-run.png."""
+    path = Path(sheet)
+    return [path.with_name(path.stem + suffix + path.suffix) for suffix, *_ in SHEETS]
+
+
+def write_sheets(sheet: str | Path) -> list[str]:
+    """Draw the walk and run contact sheets (:data:`SHEETS`) next to ``sheet``; one report line each."""
+    lines = []
+    for path, (_, what, height, speed) in zip(sheet_paths(sheet), SHEETS, strict=True):
+        drawn = contact_sheet(path, height=height, speed=speed)
+        lines.append(
+            f"Contact sheet, {what} (side view, {height:.2f} m at {speed:.1f} m/s, 0.1 s apart): {drawn}"
+        )
+    return lines
+
+
 def run_lab(sheet: str | Path | None = None, sizes=SIZES, speeds=SPEEDS) -> str:
-    """Measure everything and write the contact sheet where ``sheet`` says (none by default);
-    returns the printed report."""
+    """Measure everything and write the walk and run contact sheets where ``sheet`` says
+    (none by default; :func:`sheet_paths`); returns the printed report."""
     rows = table(sizes, speeds)
     uturns = {h: measure_uturn(h) for h in sizes}
     standing = {h: measure_stand(h)["knee"] for h in sorted({*sizes, 1.2})}
     text = format_report(rows, uturns, measure_idle(), standing)
     if sheet:
-        text += f"\nContact sheet (side view, {sizes[-1]:.2f} m at 1.2 m/s, 0.1 s apart): "
-        text += str(contact_sheet(sheet, height=sizes[-1]))
+        text += "\n" + "\n".join(write_sheets(sheet))
     return text
 
 
@@ -355,7 +408,8 @@ def register_commands(sub) -> None:
     """Add ``twig walklab`` to the CLI's subcommands."""
     p = sub.add_parser("walklab", help="measure the walk per body size and speed beside a person's")
     p.add_argument("--sheet", default=None, metavar="FILE.png",
-                   help="also write a side-view contact sheet to FILE.png (default: none)")  # fmt: skip
+                   help="also write side-view contact sheets: the walk to FILE.png, the run to "
+                        "FILE-run.png (default: none)")  # fmt: skip
     p.set_defaults(func=lambda args: print(run_lab(args.sheet or None)) or 0)
 
 
@@ -364,7 +418,8 @@ def main(argv: list[str] | None = None) -> None:
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m twig_ecs.walklab", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--sheet", default=None, metavar="FILE.png", help="also write a contact sheet")
+    parser.add_argument("--sheet", default=None, metavar="FILE.png",
+                        help="also write walk and run contact sheets (FILE.png, FILE-run.png)")  # fmt: skip
     print(run_lab(parser.parse_args(argv).sheet))
 
 

@@ -13,9 +13,9 @@ air 80% of it; running, each foot is in the air 1.2 periods, so both are up for 
 ahead of where its hip will be. In flight the foot is guided every frame
 (:func:`guide_foot`): re-aimed as the hip moves, its landing kept within the leg's reach,
 its speed bounded, and its next position never beyond the leg's reach - a kinematic foot
-out of reach would drag the hip after it. The knee leads the swing, and the opposite hand
-swings forward with each step. Standing, a foot steps only when it is well off from
-under its hip or the body is pushed.
+out of reach would drag the hip after it. The knee leads the swing, and walking, the opposite
+hand swings forward with each step (running, the posture swings bent arms). Standing, a foot
+steps only when it is well off from under its hip or the body is pushed.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from twig_ecs.kernelmath import (
     WALK_FROUDE_MAX,
     clamp,
     forward_xz,
+    run_share,
     step_length,
     swing_share,
     walk_speed,
@@ -687,13 +688,15 @@ def control_gait(args, n_chars, gravity, dt):
         swing[c, best] = t_step
         last_step[c] = best
         steps[c] += 1
-        # arm swing: the opposite hand forwards, this side's hand back
+        # arm swing: the opposite hand forwards, this side's hand back - walking; a run's
+        # bent arms are swung by the posture (posture.swing_arms), so the kick fades out with it
         if moving:
+            walk_share = 1.0 - run_share(v, legs, g)
             for hand, sign in ((L_HAND + 1 - best, 1.0), (L_HAND + best, -0.5)):
                 if arm_mode[c, hand - L_HAND] == HANG:
                     j = nd[hand]
-                    prev[j, 0] -= sign * ARM_SWING * v * dx * dt
-                    prev[j, 2] -= sign * ARM_SWING * v * dz * dt
+                    prev[j, 0] -= sign * ARM_SWING * walk_share * v * dx * dt
+                    prev[j, 2] -= sign * ARM_SWING * walk_share * v * dz * dt
 # fmt: on
 
 

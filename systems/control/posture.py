@@ -10,11 +10,13 @@ with a velocity term standing in for node damping:
   to stand up from the ground: rising too, through a kneel;
 - upright: the shoulder centre over the pelvis, leaning a little into the walk; a torso
   tipped past the most it leans is caught the harder the further it tips (a righting reflex);
+- a run's arms: a hanging arm bends about 90 degrees at the elbow and swings from the shoulder
+  opposite the legs, the more the faster (:func:`swing_arms`);
 - yaw: opposite forces on the two sides of the pelvis turn it to the walk direction,
   and on the two shoulders turn them to the gaze, at most 85 degrees from the pelvis.
 
 The torso, head and knees carry their own weight (gravity compensation, as muscles
-would); arms hang unless the arm controller holds them.
+would); arms hang unless the arm controller holds them (or a run swings them).
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from twig_ecs.components import Character
 from twig_ecs.kernelmath import (
+    CARRY,
     HANG,
     HEAD,
+    L_ELBOW,
     L_FOOT,
     L_HAND,
     L_HIP,
@@ -38,22 +41,25 @@ from twig_ecs.kernelmath import (
     NECK,
     PELVIS,
     R_FOOT,
+    R_HAND,
     R_HIP,
     R_KNEE,
     R_SHOULDER,
     REACH,
     RISE,
+    RUN_BLEND,
     SIT,
     SPINE,
     STAND,
     WALK_FROUDE_MAX,
     clamp,
     forward_xz,
+    run_share,
     walk_speed,
     yaw_error,
 )
 from twig_ecs.step import StepContext
-from twig_ecs.store import MOVE_GAIT_ARC, NODE_LOCKED, NODE_MOVING, columns
+from twig_ecs.store import LINK_GRAB, MOVE_GAIT_ARC, NODE_LOCKED, NODE_MOVING, columns
 from twig_ecs.system import System
 from twig_ecs.systems.control.gait import DOWN, LEAD, MOST_AHEAD, heel_room, step_timing
 
@@ -89,6 +95,17 @@ HELD = 0.6  # of the leg's length: a planted foot behind its hip this far (along
 HELD_SPAN = 0.1  # the walk, to a stop this much further (a straight trailing leg, heel up, at full stretch)
 TURN_SLOW = 0.3  # of the walk speed kept while the pelvis faces the other way (a U-turn)
 MAX_PITCH = math.radians(25.0)  # the most the upright control leans the torso from the vertical
+# a run's arms (swing_arms): bent RUN_ELBOW at the elbow, the upper arm RUN_ARM_BACK back from
+# hanging on average and swung RUN_ARM_SWING either way at the walk-run transition, RUN_ARM_MORE more
+# per Froude number above it (at most RUN_ARM_MOST): forward with the opposite leg
+RUN_ELBOW = math.radians(90.0)
+RUN_ARM_BACK = math.radians(10.0)
+RUN_ARM_SWING = math.radians(30.0)
+RUN_ARM_MORE = math.radians(15.0)
+RUN_ARM_MOST = math.radians(45.0)
+RUN_ARM_IN = 0.15  # of the forearm's length: the hand swings this far in towards the midline
+ARM_GAIN, ARM_DAMP = 300.0, 30.0  # 1/s^2, 1/s: hand and elbow to the run's arm pose
+ARM_MOST = 120.0  # m/s^2 (as systems/control/arms.py)
 # a righting reflex: the upright gain grows by RIGHTING times itself over the first 10 degrees
 # (in sine) a torso tips past MAX_PITCH, and on at that rate beyond
 RIGHTING = 8.0
@@ -196,6 +213,68 @@ def sink_speed(pos, flags, nd, legs):
 
 
 @njit(cache=True, nogil=True)
+def swing_arms(pos, prev, acc, mass, nd, side, share, froude, step, gravity, dt):
+    """A run's arm on ``side`` (0 left, 1 right): bent about RUN_ELBOW and swung from the
+    shoulder opposite the legs - forward as the other foot goes forward - the more the faster.
+
+    ``share``: how much of a run the pace is (``kernelmath.run_share``; the pose and its
+    gains fade in with it), ``froude`` its Froude number, ``step`` its step length. The phase
+    is read off the feet (the other foot's lead over this side's, in steps), so the arms keep
+    time with whatever the legs do; its rate is fed forward, so the swing does not lag.
+    Hand and elbow are pulled to the pose relative to the shoulder and held up against gravity
+    by the shoulders: the push on them is taken off the upper torso (a muscle's pull, no net
+    push on the body; held up from outside, as ``arms.py`` holds a pose, their weight would be
+    taken off the runner and lighten its flight).
+    """
+    s, e, w = nd[L_SHOULDER + side], nd[L_ELBOW + side], nd[L_HAND + side]
+    sx, sz = forward_xz(pos, nd[L_SHOULDER], nd[R_SHOULDER])
+    fx, fz = forward_xz(pos, nd[L_HIP], nd[R_HIP])
+    me, other = nd[L_FOOT + side], nd[L_FOOT + 1 - side]
+    lead = ((pos[other, 0] - pos[me, 0]) * fx + (pos[other, 2] - pos[me, 2]) * fz) / step
+    rate = (((pos[other, 0] - prev[other, 0]) - (pos[me, 0] - prev[me, 0])) * fx
+            + ((pos[other, 2] - prev[other, 2]) - (pos[me, 2] - prev[me, 2])) * fz) / (step * dt)
+    if abs(lead) >= 1.0:
+        rate = 0.0
+    lead = clamp(lead, -1.0, 1.0)
+    amp = min(RUN_ARM_SWING + RUN_ARM_MORE * max(0.0, froude - WALK_FROUDE_MAX), RUN_ARM_MOST)
+    # the upper arm's angle forwards from hanging, and the forearm's (the elbow bent RUN_ELBOW)
+    phi = share * (amp * lead - RUN_ARM_BACK)
+    phi_rate = share * amp * rate
+    a = phi + share * RUN_ELBOW
+    upper = math.sqrt((pos[e, 0] - pos[s, 0]) ** 2 + (pos[e, 1] - pos[s, 1]) ** 2
+                      + (pos[e, 2] - pos[s, 2]) ** 2)
+    fore = math.sqrt((pos[w, 0] - pos[e, 0]) ** 2 + (pos[w, 1] - pos[e, 1]) ** 2
+                     + (pos[w, 2] - pos[e, 2]) ** 2)
+    inward = -1.0 if side == 0 else 1.0  # towards the midline: left is +x when facing +z
+    ix, iz = inward * sz * RUN_ARM_IN * fore * share, -inward * sx * RUN_ARM_IN * fore * share
+    # elbow E = S + upper (sin phi F - cos phi up); hand H = E + fore (sin a F - cos a up)
+    ef, ey = upper * math.sin(phi), -upper * math.cos(phi)
+    hf, hy = ef + fore * math.sin(a), ey - fore * math.cos(a)
+    ef_rate, ey_rate = upper * math.cos(phi) * phi_rate, upper * math.sin(phi) * phi_rate
+    hf_rate = ef_rate + fore * math.cos(a) * phi_rate
+    hy_rate = ey_rate + fore * math.sin(a) * phi_rate
+    aim_e = (pos[s, 0] + ef * sx, pos[s, 1] + ey, pos[s, 2] + ef * sz)
+    aim_h = (pos[s, 0] + hf * sx + ix, pos[s, 1] + hy, pos[s, 2] + hf * sz + iz)
+    rate_e = (ef_rate * sx, ey_rate, ef_rate * sz)
+    rate_h = (hf_rate * sx, hy_rate, hf_rate * sz)
+    gain, damp = share * ARM_GAIN, share * ARM_DAMP
+    m_up = mass[nd[NECK]] + mass[nd[L_SHOULDER]] + mass[nd[R_SHOULDER]] + mass[nd[HEAD]]
+    for k in range(3):
+        vs = (pos[s, k] - prev[s, k]) / dt
+        ve = (pos[e, k] - prev[e, k]) / dt - vs
+        vw = (pos[w, k] - prev[w, k]) / dt - vs
+        a_e = clamp(gain * (aim_e[k] - pos[e, k]) - damp * (ve - rate_e[k]), -ARM_MOST, ARM_MOST)
+        a_e -= share * gravity[k]
+        a_w = clamp(gain * (aim_h[k] - pos[w, k]) - damp * (vw - rate_h[k]), -ARM_MOST, ARM_MOST)
+        a_w -= share * gravity[k]
+        acc[e, k] += a_e
+        acc[w, k] += a_w
+        back = (mass[e] * a_e + mass[w] * a_w) / m_up  # equal and opposite, on the upper torso
+        for role in (NECK, L_SHOULDER, R_SHOULDER, HEAD):
+            acc[nd[role], k] -= back
+
+
+@njit(cache=True, nogil=True)
 def control_posture(args, n_chars, gravity, dt, holding):
     """Add posture accelerations for every character (see the module docstring; ``args``:
     ``store.columns(PostureColumns, nodes, characters)``)."""
@@ -248,12 +327,16 @@ def control_posture(args, n_chars, gravity, dt, holding):
         target_vy = 0.0
         lift_most = MAX_ACC
         push_x, push_y, push_z = 0.0, 0.0, 0.0
+        running = 0.0  # how much of a run the pace asked for is (kernelmath.run_share) ...
+        froude = 0.0  # ... and its Froude number
         if moving and g > 1e-6:
             # the gait decides the top speed per body size (kernelmath.walk_speed); the
             # pelvis slows into a sharp turn, down to TURN_SLOW of it facing the other way
             sp = math.sqrt(wx * wx + wz * wz)
             v = walk_speed(sp, leg_length[c], g)
             v, step, _, t_fly = step_timing(v, leg_length[c], g)
+            running = run_share(v, leg_length[c], g)
+            froude = v * v / (g * leg_length[c])
             turn = yaw_error(fx, fz, wx / sp, wz / sp)
             v *= TURN_SLOW + (1.0 - TURN_SLOW) * min(1.0, 1.0 + math.cos(turn))  # slower past 90 deg
             # a planted foot left far behind or to the side holds the pelvis back: it waits
@@ -430,6 +513,17 @@ def control_posture(args, n_chars, gravity, dt, holding):
                     pull = HANDS_GAIN * (aim - pos[hand, k]) - HANDS_DAMP * v
                     acc[hand, k] += clamp(pull, -MAX_ACC, MAX_ACC)
 
+        if running > 0.0 and mode[c] == STAND:
+            # a run's arms: bent, swung opposite the legs. A hand that holds something, or an arm
+            # a behaviour holds in a pose (a carried doll), is left as it is; so is the free arm
+            # of a body led by its other hand (a bar held running round a merry-go-round: one arm
+            # pumping beside it twisted the rider's shoulders, and a foot came over the rim)
+            for side in range(2):
+                other = cols.arm_mode[c, 1 - side]
+                if (cols.arm_mode[c, side] == HANG and not holding[c, side]
+                        and (other == HANG or other == CARRY)):
+                    swing_arms(pos, prev, acc, mass, nd, side, running, froude, step, gravity, dt)
+
         # -- upright: shoulder centre over the pelvis (over the feet when rising)
         n = nd[NECK]
         if mode[c] == RISE and not from_ground:
@@ -536,10 +630,22 @@ class PostureSystem(System):
         if ch.count == 0:
             return
         g = ctx.settings.gravity
-        # which hands hold something: not put on a thigh as it gets up (only rising reads it)
-        holding = np.zeros((ch.count, 2), dtype=np.bool_)
-        if (ch.mode[: ch.count] == RISE).any():
-            for _, character in ctx.world.get_component(Character):
-                for side, hand in enumerate(("left", "right")):
-                    holding[character.index, side] = hand in character.holding
+        # which hands hold something (a grab joint from the hand): not put on a thigh as it
+        # gets up, nor swung in a run (only rising and running read it: looked up only then)
+        if (ch.mode[: ch.count] == RISE).any() or self._running(ch, g):
+            links = s.links
+            grabs = links.a[: links.count][(links.flags[: links.count] & LINK_GRAB) != 0]
+            holding = np.isin(ch.nodes[: ch.count, L_HAND : R_HAND + 1], grabs)
+        else:
+            holding = np.zeros((ch.count, 2), dtype=np.bool_)
         control_posture(columns(PostureColumns, n, ch), ch.count, g, dt, holding)
+
+    @staticmethod
+    def _running(ch, gravity) -> bool:
+        """Is anyone asked for a pace past where the run's arms come in (Froude
+        WALK_FROUDE_MAX less half the blend, ``kernelmath.run_share``) with a hanging arm."""
+        count = ch.count
+        g = float(np.linalg.norm(gravity))
+        pace = np.einsum("ij,ij->i", ch.walk[:count], ch.walk[:count])
+        fast = pace > (WALK_FROUDE_MAX - 0.5 * RUN_BLEND) * g * ch.leg_length[:count]
+        return bool((fast & (ch.arm_mode[:count] == HANG).any(axis=1)).any())
