@@ -870,9 +870,15 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     # the final limits pass pressed a folded knee 6 cm under
     lift_out_of_ground(nodes)
     n_near = repick_moved(nodes, cols, pairs, n_pairs, near, n_near, watch)
-    # measure only: the deepest overlap left after this step's relaxation
+    # measure only: the deepest overlap left after this step's relaxation (not of a pair with
+    # room to spare: see contact_pass)
+    w = NearWatch(*watch)
+    reach = 2.0 * math.sqrt(w.drift2[0]) + APART_SLACK if w.gap.shape[0] else np.inf
+    gated = reach < CONTACT_MARGIN
     worst = 0.0
     for k in range(n_near):
+        if gated and w.near_gap[k] > reach:
+            continue
         i = near[k, 0]
         j = near[k, 1]
         if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
