@@ -256,7 +256,6 @@ def test_the_near_pairs_follow_moving_nodes_and_never_leave_out_a_touching_pair(
         contacts_of,
         mark_near,
         near_pairs,
-        near_watch,
         repick_moved,
     )
     from twig_ecs.systems.physics.constrain import constraints_of, named_constraints
@@ -272,7 +271,8 @@ def test_the_near_pairs_follow_moving_nodes_and_never_leave_out_a_touching_pair(
         near = np.empty((n, 2), dtype=st.pairs.dtype)
         is_near = np.empty(n, dtype=np.bool_)
         count = mark_near(pos, col.a, col.b, col.radius, st.pairs, n, CONTACT_MARGIN, is_near, near)
-        watch = near_watch(is_near, pos[: st.nodes.count].copy(), col.count, gaps=False)
+        watch = (is_near, pos[: st.nodes.count].copy(), np.empty(st.nodes.count, np.bool_),
+                 np.empty(col.count, np.bool_))  # fmt: skip
         order = {p: k for k, p in enumerate(map(tuple, st.pairs[:n].tolist()))}
         rng = np.random.default_rng(3)
         changed = 0
@@ -295,86 +295,6 @@ def test_the_near_pairs_follow_moving_nodes_and_never_leave_out_a_touching_pair(
         assert repick_moved(nodes, cols, st.pairs, n, near, count, watch) == count
         assert (near[:count] == before).all()
         assert changed > 10, "the long moves bring pairs near and take others away"
-
-
-def test_a_contact_pass_skips_near_pairs_with_room_to_spare_and_moves_nodes_as_before():
-    """A contact pass passes over a near pair without measuring it where its gap, less what its
-    nodes have drifted since it was measured and what the pass has moved them, is still open
-    (``ContactGate``); every node, flag and tactile record comes out to the bit as from a pass
-    that measures every near pair - through a step's small drifts and through long moves that
-    measure pairs again (their gaps counted less)."""
-    from twig_ecs.bench.cases import hugging_pairs
-    from twig_ecs.systems.physics.collide import (
-        CONTACT_MARGIN,
-        CollideSystem,
-        ContactColumns,
-        contact_pass,
-        contacts_of,
-        mark_near_gaps,
-        near_watch,
-    )
-    from twig_ecs.systems.physics.constrain import constraints_of, named_constraints, relax_once
-
-    with hugging_pairs(40) as scene:
-        scene.run(4.0)  # arms round: many pairs touching, many more close
-        collide = next(s for s in scene.schedule.systems() if isinstance(s, CollideSystem))
-        n = collide.broad_phase()
-        st = scene.state
-        c = named_constraints(constraints_of(st))
-        cols = ContactColumns(*contacts_of(st))
-        pos, col, count = st.nodes.pos, st.colliders, st.nodes.count
-        state = (pos, st.nodes.prev, st.nodes.flags, col.hit_energy, col.hit_by)
-        saved = [a.copy() for a in state]
-
-        def passes(gaps: bool) -> list[np.ndarray]:
-            for array, was in zip(state, saved, strict=True):
-                array[...] = was
-            near = np.empty((n, 2), dtype=st.pairs.dtype)
-            watch = near_watch(np.empty(n, np.bool_), pos[:count].copy(), col.count, gaps=gaps)
-            gap = watch[4] if gaps else np.empty(n)
-            near_gap = watch[5] if gaps else np.empty(n)
-            count_near = mark_near_gaps(pos, col.a, col.b, col.radius, st.pairs, n, CONTACT_MARGIN, watch[0],
-                                        near, gap, near_gap)  # fmt: skip
-            rng = np.random.default_rng(5)
-            for it in range(12):
-                if it in (4, 8):  # long moves: some nodes anchored again, their pairs measured again
-                    far = rng.choice(count, 40, replace=False)
-                    pos[far] += rng.normal(0.0, 0.01, (40, 3))
-                count_near = contact_pass(c.nodes, cols, st.pairs, n, near, count_near, watch, it == 0,
-                                          scene.dt)  # fmt: skip
-                relax_once(c)
-            return [a.copy() for a in state]
-
-        for measured, gated in zip(passes(gaps=False), passes(gaps=True), strict=True):
-            assert np.array_equal(measured, gated)
-
-
-def test_a_contact_pass_measures_a_near_pair_its_earlier_contacts_pushed_together():
-    """A gap left open at the start of a pass can close within it: three capsules stacked, the
-    lower two overlapping by 1 cm and the upper two 3 mm apart; resolving the first pair lifts
-    the middle capsule's end 5 mm, into the upper one. The gated pass measures that pair after
-    all (its node was pushed further than its gap) and resolves it as an ungated pass does."""
-    from twig_ecs.systems.physics.collide import APART_SLACK, ContactColumns, ContactGate, resolve_contacts
-    from twig_ecs.systems.physics.constrain import NodeColumns
-
-    def run(gate_gaps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        pos = np.array([[0.0, y, 0.0] for y in (0.0, 0.09, 0.193) for _ in (0, 1)])
-        pos[1::2, 0] = 0.4  # capsules 40 cm long along x, radius 5 cm
-        flags, unlocked = np.zeros(6, np.uint32), np.zeros((6, 3))
-        nodes = NodeColumns(pos, pos.copy(), np.ones(6), flags, np.zeros(6), unlocked, 6)
-        ends = np.array([0, 2, 4], np.int32), np.array([1, 3, 5], np.int32)
-        record = np.zeros(3), np.full(3, -1, np.int32)
-        cols = ContactColumns(*ends, np.full(3, 0.05), *record, np.arange(3, dtype=np.int32), 3)
-        pairs = np.array([[0, 1], [1, 2]], np.int32)
-        push = np.zeros(6)
-        resolve_contacts(nodes, cols, pairs, 2, False, 1.0 / 60.0, ContactGate(gate_gaps, APART_SLACK, push))
-        return pos, push
-
-    measured, _ = run(np.empty(0))  # no gate: both pairs measured
-    gated, push = run(np.array([-0.01, 0.003]))  # their gaps at the start of the pass
-    assert push[2] > 0.003, "the first contact pushed the middle capsule's end further than the gap"
-    assert measured[4, 1] > 0.193, "the upper capsule was pushed in turn"
-    assert np.array_equal(measured, gated)
 
 
 @pytest.mark.skipif(usable_threads() < 2, reason="one usable thread (NUMBA_NUM_THREADS=1?): nothing to split")

@@ -57,8 +57,8 @@ BROAD_MARGIN = 0.05
 #: differs): check the state hashes before changing it. (Likely why: the room counted is at the
 #: start of a pass, but a contact resolved earlier in the same pass may push a node of a pair
 #: left out further than that - up to half a capsule's radius - and the pair is then resolved a
-#: pass later; at 1 cm there is half the room. ContactGate, which skips near pairs, counts
-#: those pushes: a gate that did not moved the hashes of the pile and of brawl-100.)
+#: pass later; at 1 cm there is half the room. A gate that skipped near pairs by their room at
+#: the start of the pass moved the hashes of the pile and of brawl-100: docs/performance.md.)
 CONTACT_MARGIN = 0.02
 #: A node this far (m) from where it stood when its candidate pairs were last measured has
 #: them measured again: a quarter of the margin, so that none left out can touch (:func:`repick_moved`).
@@ -442,18 +442,8 @@ def _segments_apart(pos, a, b, c, d, gap):
     return out
 
 
-class ContactGate(NamedTuple):
-    """What lets :func:`resolve_contacts` pass over a near pair without measuring it: its gap
-    (m) when measured, how much of it may have closed by the start of the pass, and how far
-    the pass has moved each node since."""
-
-    near_gap: np.ndarray  # per pair of the pass (none: every pair is measured)
-    reach: float  # m
-    push: np.ndarray  # per node (m), written: zero at the start of the pass
-
-
 @njit(cache=True, nogil=True)
-def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt, gate):
+def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
 
     Each capsule's end nodes move in proportion to their share of the contact point
@@ -462,15 +452,8 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
     mu: reduced mass at the contact) is written to the tactile record of the struck side
     (the one that contributed less of the closing speed). Returns the
     largest penetration (m) met in this pass.
-
-    ``gate`` (a :class:`ContactGate`; its ``near_gap`` empty: none) skips a pair whose gap,
-    less the ``reach`` and what this pass has moved its nodes, is still open: its capsules
-    cannot overlap, and the pass would skip it after measuring (the hugging crowd: half its
-    8000 near pairs, its nodes drifting a fraction of a millimetre within a step).
     """
     pos, prev, inv_mass, flags = nodes.pos, nodes.prev, nodes.inv_mass, nodes.flags
-    near_gap, reach, push = gate
-    gated = near_gap.shape[0] > 0
     col_a, col_b, col_r, hit_energy, hit_by = cols.a, cols.b, cols.radius, cols.hit_energy, cols.hit_by
     body = cols.body
     worst = 0.0
@@ -481,10 +464,6 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         b = row(col_b[i])
         c = row(col_a[j])
         d = row(col_b[j])
-        if gated and near_gap[k] > reach:
-            # each point of a segment has moved at most as far as the further of its ends
-            if near_gap[k] - reach > max(push[a], push[b]) + max(push[c], push[d]):
-                continue
         # (no box test first, as the near-pair measures make: of the near pairs it passes one in
         # ten - the 1000 hugging: 700 of 7500 - and costs the others more than it spares those;
         # a pair it would pass lies further apart than its reach at these points too)
@@ -612,11 +591,6 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         nudge(pos, b, fb, nx, ny, nz)
         nudge(pos, c, -fc, nx, ny, nz)
         nudge(pos, d, -fd, nx, ny, nz)
-        if gated:  # (n is a unit vector: each node moved by |f|)
-            push[a] += abs(fa)
-            push[b] += abs(fb)
-            push[c] += abs(fc)
-            push[d] += abs(fd)
         # a foot knocked off its ballistic path stops being kinematic to its leg's links,
         # or the leg would stretch after it - but not by a loose ball it swings through (a
         # kick goes on through a ball: stopped at the first touch, the leg gave a 0.4 kg
@@ -657,48 +631,36 @@ def segment_gap2(pos, a, b, c, d):
 
 
 @njit(cache=True, inline="always")
-def _near_gap(pos, col_a, col_b, col_r, i, j, margin):
-    """The gap (m) between the surfaces of colliders ``i`` and ``j`` (< 0: they overlap) where
-    they are within ``margin`` of touching, else inf (a box test first: most candidate pairs
-    are surely apart)."""
-    a, b, c, d = row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j])
-    radii = col_r[i] + col_r[j]
-    reach = radii + margin
-    if _segments_apart(pos, a, b, c, d, reach):
-        return np.inf
-    gap2 = segment_gap2(pos, a, b, c, d)
-    return math.sqrt(gap2) - radii if gap2 < reach * reach else np.inf
+def _within(pos, a, b, c, d, reach):
+    """Are segments a-b and c-d (node rows) closer than ``reach`` (m)?"""
+    return not _segments_apart(pos, a, b, c, d, reach) and segment_gap2(pos, a, b, c, d) < reach * reach
 
 
-@njit(cache=True, nogil=True)
-def mark_near_gaps(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near, gap, near_gap):
-    """Marks in ``is_near`` the candidate pairs (first ``n_pairs`` of ``pairs``) whose capsules
-    are within ``margin`` of touching and lists them in ``near``, in order; returns how many.
-    The broad phase's boxes overlap for many more (a capsule's box is much wider than it; a
-    crowd's bodies stand side by side): a contact pass needs to look only at these
-    (:func:`repick_moved` keeps the list true as nodes move). Each near pair's gap goes into
-    ``gap`` (by candidate) and ``near_gap`` (by place in ``near``): a contact pass passes over
-    a pair with room to spare without measuring it (:class:`ContactGate`)."""
-    n = 0
-    for k in range(n_pairs):
-        i = row(pairs[k, 0])
-        j = row(pairs[k, 1])
-        g = _near_gap(pos, col_a, col_b, col_r, i, j, margin)
-        is_near[k] = g < np.inf
-        if is_near[k]:
-            near[n, 0] = i
-            near[n, 1] = j
-            gap[k] = g
-            near_gap[n] = g
-            n += 1
-    return n
+@njit(cache=True, inline="always")
+def _capsules_near(pos, col_a, col_b, col_r, i, j, margin):
+    """Are colliders ``i`` and ``j`` within ``margin`` of touching (a box test first: most
+    candidate pairs are surely apart)?"""
+    reach = col_r[i] + col_r[j] + margin
+    return _within(pos, row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j]), reach)
 
 
 @njit(cache=True, nogil=True)
 def mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near):
-    """:func:`mark_near_gaps` without the gaps."""
-    gap = np.empty(n_pairs)
-    return mark_near_gaps(pos, col_a, col_b, col_r, pairs, n_pairs, margin, is_near, near, gap, gap)
+    """Marks in ``is_near`` the candidate pairs (first ``n_pairs`` of ``pairs``) whose capsules
+    are within ``margin`` of touching and lists them in ``near``, in order; returns how many.
+    The broad phase's boxes overlap for many more (a capsule's box is much wider than it; a
+    crowd's bodies stand side by side): a contact pass needs to look only at these
+    (:func:`repick_moved` keeps the list true as nodes move)."""
+    n = 0
+    for k in range(n_pairs):
+        i = row(pairs[k, 0])
+        j = row(pairs[k, 1])
+        is_near[k] = _capsules_near(pos, col_a, col_b, col_r, i, j, margin)
+        if is_near[k]:
+            near[n, 0] = i
+            near[n, 1] = j
+            n += 1
+    return n
 
 
 @njit(cache=True, nogil=True)
@@ -712,27 +674,12 @@ def near_pairs(pos, col_a, col_b, col_r, pairs, n_pairs, margin):
 
 class NearWatch(NamedTuple):
     """What :func:`repick_moved` keeps between contact passes: which candidates are near, where
-    each node stood when its pairs were last measured, and scratch flags; and for
-    the contact passes (:class:`ContactGate`), how near each near pair was and how far the
-    nodes have drifted."""
+    each node stood when its pairs were last measured, and scratch flags."""
 
     is_near: np.ndarray  # per candidate pair
     anchor: np.ndarray  # per node (n x 3)
     moved: np.ndarray  # per node, scratch
     col_moved: np.ndarray  # per collider, scratch
-    gap: np.ndarray  # per candidate pair: its gap when measured, less its nodes' drift then (m)
-    near_gap: np.ndarray  # the same per place in the near list
-    drift2: np.ndarray  # (1,): the largest squared distance (m^2) of a node from its anchor
-    push: np.ndarray  # per node: how far (m) the contact pass under way has moved it, at most
-
-
-def near_watch(is_near, anchor, n_colliders: int, gaps: bool = True) -> tuple:
-    """A :class:`NearWatch` (as a plain tuple) of ``is_near`` and ``anchor``, with its scratch
-    arrays; ``gaps`` off: no gaps kept (every contact pass then measures every near pair)."""
-    n_pairs = len(is_near) if gaps else 0
-    scratch = (np.empty(anchor.shape[0], np.bool_), np.empty(n_colliders, np.bool_))
-    return (is_near, anchor, *scratch, np.empty(n_pairs), np.empty(n_pairs), np.full(1, np.inf),
-            np.zeros(anchor.shape[0]))  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -749,33 +696,24 @@ def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
     apart is skipped) unless its own contacts push a node of a pair left out further than the
     room it had (see ``CONTACT_MARGIN``).
     """
-    w = NearWatch(*watch)
     if n_near == n_pairs:
-        w.drift2[0] = np.inf  # (not measured: the contact pass measures them all)
         return n_near  # all of them are listed: nothing can be missing
-    is_near, anchor, moved, col_moved = w.is_near, w.anchor, w.moved, w.col_moved
+    is_near, anchor, moved, col_moved = NearWatch(*watch)
     pos = nodes.pos
     limit2 = REPICK_MOVE * REPICK_MOVE
     any_moved = False
-    drift2 = 0.0  # of the nodes not anchored again (those are at their anchors now)
     for i in range(nodes.count):
         dx = pos[i, 0] - anchor[i, 0]
         dy = pos[i, 1] - anchor[i, 1]
         dz = pos[i, 2] - anchor[i, 2]
-        d2 = dx * dx + dy * dy + dz * dz
-        moved[i] = d2 > limit2
+        moved[i] = dx * dx + dy * dy + dz * dz > limit2
         if moved[i]:
             any_moved = True
             anchor[i, 0] = pos[i, 0]
             anchor[i, 1] = pos[i, 1]
             anchor[i, 2] = pos[i, 2]
-        elif d2 > drift2:
-            drift2 = d2
-    w.drift2[0] = drift2
     if not any_moved:
         return n_near
-    gap, near_gap = w.gap, w.near_gap
-    keep_gaps = gap.shape[0] >= n_pairs
     col_a, col_b, col_r = cols.a, cols.b, cols.radius
     for c in range(cols.count):
         col_moved[c] = moved[col_a[c]] | moved[col_b[c]]
@@ -784,17 +722,10 @@ def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
         i = row(pairs[k, 0])
         j = row(pairs[k, 1])
         if col_moved[i] | col_moved[j]:
-            g = _near_gap(pos, col_a, col_b, col_r, i, j, CONTACT_MARGIN)
-            is_near[k] = g < np.inf
-            if keep_gaps:
-                # the pair's other nodes may stand up to REPICK_MOVE off their anchors now, and
-                # each may go as far the other way: count the gap as that much less each side
-                gap[k] = g - 2.0 * REPICK_MOVE
+            is_near[k] = _capsules_near(pos, col_a, col_b, col_r, i, j, CONTACT_MARGIN)
         if is_near[k]:
             near[n, 0] = i
             near[n, 1] = j
-            if keep_gaps:
-                near_gap[n] = gap[k]
             n += 1
     return n
 
@@ -804,17 +735,7 @@ def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
     """:func:`resolve_contacts` over the pairs :func:`repick_moved` keeps near: it does exactly
     what a pass over every candidate would. Returns how many it visited."""
     n_near = repick_moved(nodes, cols, pairs, n_pairs, near, n_near, watch)
-    w = NearWatch(*watch)
-    # no node of a near pair has been anchored again since the pair was measured, so each has
-    # moved at most its drift from its anchor: by the start of this pass the pair's gap has
-    # closed by at most twice the largest drift (its gap was counted less where it may have
-    # moved further: repick_moved)
-    reach = 2.0 * math.sqrt(w.drift2[0]) + APART_SLACK if w.gap.shape[0] else np.inf
-    if reach < CONTACT_MARGIN:
-        w.push[: nodes.count] = 0.0
-        resolve_contacts(nodes, cols, near, n_near, record, dt, ContactGate(w.near_gap, reach, w.push))
-    else:  # (every near pair may touch, or no gaps kept: measure them all)
-        resolve_contacts(nodes, cols, near, n_near, record, dt, ContactGate(w.near_gap[:0], reach, w.push))
+    resolve_contacts(nodes, cols, near, n_near, record, dt)
     return n_near
 
 
@@ -838,17 +759,13 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     if n_pairs >= NEAR_FROM:
         near = np.empty((n_pairs, 2), dtype=pairs.dtype)
         is_near = np.empty(n_pairs, dtype=np.bool_)
-        gap, near_gap = np.empty(n_pairs), np.empty(n_pairs)
-        n_near = mark_near_gaps(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN, is_near, near, gap,
-                                near_gap)  # fmt: skip
+        n_near = mark_near(pos, col_a, col_b, col_r, pairs, n_pairs, CONTACT_MARGIN, is_near, near)
         anchor = pos[: nodes.count].copy()
     else:  # a small scene: a pass over them all costs less than watching for moves
         near, n_near = pairs, n_pairs
         is_near = np.ones(0, dtype=np.bool_)  # (never read: no pair is left out)
         anchor = pos[:0].copy()
-        gap, near_gap = np.empty(0), np.empty(0)
-    watch = (is_near, anchor, np.empty(anchor.shape[0], np.bool_), np.empty(cols.count, np.bool_), gap,
-             near_gap, np.full(1, np.inf), np.zeros(anchor.shape[0]))  # fmt: skip
+    watch = (is_near, anchor, np.empty(anchor.shape[0], np.bool_), np.empty(cols.count, np.bool_))
     for it in range(iterations):
         n_near = contact_pass(nodes, cols, pairs, n_pairs, near, n_near, watch, it == 0, dt)
         relax_once(c)
@@ -870,15 +787,9 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
     # the final limits pass pressed a folded knee 6 cm under
     lift_out_of_ground(nodes)
     n_near = repick_moved(nodes, cols, pairs, n_pairs, near, n_near, watch)
-    # measure only: the deepest overlap left after this step's relaxation (not of a pair with
-    # room to spare: see contact_pass)
-    w = NearWatch(*watch)
-    reach = 2.0 * math.sqrt(w.drift2[0]) + APART_SLACK if w.gap.shape[0] else np.inf
-    gated = reach < CONTACT_MARGIN
+    # measure only: the deepest overlap left after this step's relaxation
     worst = 0.0
     for k in range(n_near):
-        if gated and w.near_gap[k] > reach:
-            continue
         i = near[k, 0]
         j = near[k, 1]
         if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
