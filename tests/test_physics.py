@@ -227,11 +227,16 @@ def test_the_contact_passes_visit_exactly_the_candidate_pairs_within_reach_in_or
         near, count = near_pairs(pos, col.a, col.b, col.radius, st.pairs, n, 0.1)
         t = np.linspace(0.0, 1.0, 201)[:, None]
         gaps = []
-        for i, j in pairs:
-            p = pos[col.a[i]] + t * (pos[col.b[i]] - pos[col.a[i]])
-            q = pos[col.a[j]] + t * (pos[col.b[j]] - pos[col.a[j]])
-            closest = np.sqrt(((p[:, None] - q[None]) ** 2).sum(axis=2)).min()
-            gaps.append(closest - col.radius[i] - col.radius[j])
+        for chunk in np.array_split(pairs, max(1, len(pairs) // 32)):  # 32 pairs a numpy call, not 1
+            i, j = chunk[:, 0], chunk[:, 1]
+            p = pos[col.a[i]][:, None] + t * (pos[col.b[i]] - pos[col.a[i]])[:, None]  # (pairs, 201, 3)
+            q = pos[col.a[j]][:, None] + t * (pos[col.b[j]] - pos[col.a[j]])[:, None]
+            # every sample of one against every sample of the other, |p - q|^2 as |p|^2 + |q|^2 - 2 p.q
+            # (a matrix product: five times quicker than the differences; off by < 1e-9 m here)
+            across = p @ q.transpose(0, 2, 1)  # (pairs, 201, 201): p.q
+            square = (p * p).sum(axis=2)[:, :, None] + (q * q).sum(axis=2)[:, None] - 2 * across
+            closest = np.sqrt(np.maximum(square.min(axis=(1, 2)), 0.0))
+            gaps.extend(closest - col.radius[i] - col.radius[j])
         gaps = np.array(gaps)
         # sampled distances overestimate by at most the spacing: leave out the borderline ones
         sure_in = {tuple(p) for p, g in zip(pairs.tolist(), gaps, strict=True) if g < 0.1 - 0.01}
@@ -405,3 +410,37 @@ def test_the_broad_phase_sorts_its_grid_entries_by_bucket_keeping_their_order_wi
         order, sorted_keys = sort_by_hash(keys, bits)
         assert (order == np.argsort(keys, kind="stable")).all()
         assert (sorted_keys == np.sort(keys)).all()
+
+
+def test_the_ground_pass_lifts_marks_and_locks_nodes_as_the_node_by_node_rule_says():
+    """``project_ground`` (written without branches) does to every node what the plain rule
+    says: a free node below its radius comes up onto it, one within the contact slop is marked
+    in contact, one that locks on contact is locked where it then stands; locked nodes and
+    nodes in the air are left alone."""
+    from twig_ecs.store import NODE_IN_CONTACT, NODE_LOCK_ON_CONTACT, NODE_LOCKED
+    from twig_ecs.systems.physics.constrain import CONTACT_SLOP, NodeColumns, project_ground
+
+    rng = np.random.default_rng(7)
+    count = 400
+    pos = rng.uniform(-0.05, 0.1, (count + 5, 3))  # (rows past count: not live)
+    radius = rng.uniform(0.0, 0.05, count + 5)
+    kinds = np.array([0, NODE_LOCKED, NODE_LOCK_ON_CONTACT, NODE_IN_CONTACT], np.uint32)
+    flags = rng.choice(kinds, count + 5)
+    lock_pos = np.zeros((count + 5, 3))
+    want_pos, want_flags, want_lock = pos.copy(), flags.copy(), lock_pos.copy()
+    was_locked, was_at = (flags & NODE_LOCKED) != 0, pos[:, 1].copy()
+    for i in range(count):  # the rule, node by node
+        f = int(want_flags[i])
+        if f & NODE_LOCKED or want_pos[i, 1] >= radius[i] + CONTACT_SLOP:
+            continue
+        want_pos[i, 1] = max(want_pos[i, 1], radius[i])
+        f |= NODE_IN_CONTACT
+        if f & NODE_LOCK_ON_CONTACT:
+            f |= NODE_LOCKED
+            want_lock[i] = want_pos[i]
+        want_flags[i] = f
+    project_ground(NodeColumns(pos, pos.copy(), np.ones(count + 5), flags, radius, lock_pos, count))
+    assert np.array_equal(pos, want_pos) and np.array_equal(flags, want_flags)
+    assert np.array_equal(lock_pos, want_lock)
+    assert ((flags & NODE_LOCKED != 0) & ~was_locked).any(), "some nodes locked as they landed"
+    assert (pos[:count, 1] > was_at[:count]).any(), "some nodes lifted onto the ground"
