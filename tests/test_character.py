@@ -232,30 +232,3 @@ def test_character_starting_commands_are_checked_when_loading(tmp_path):
     path.write_text("twig: 1\nentities:\n  - {name: b, body: ball, character: true}\n")
     with pytest.raises(SceneError, match="a character needs a body with the humanoid's nodes"):
         Scene.load(path)
-
-
-def _torso_side(character) -> float:
-    """Signed volume of pelvis, hips and mid-spine: its sign tells the torso from its mirror image."""
-    pelvis, left, right, spine = (character.node(n) for n in ("pelvis", "l_hip", "r_hip", "spine"))
-    return float(np.dot(np.cross(left - pelvis, right - pelvis), spine - pelvis))
-
-
-def test_a_pelvis_pushed_through_to_the_front_of_its_hip_bar_goes_back_behind_it(person):
-    # The torso's nodes lie nearly in one plane, so the pelvis mirrored through the plane of
-    # the hips and mid-spine keeps its links' lengths: the schoolyard's posture pushed pelvises
-    # through now and then, and they stayed in front of the hip bar for up to 43 s, the hips'
-    # frame (knee hinges, the export's pelvis bone) inside out.
-    scene = person.scene
-    upright = _torso_side(person)
-    assert upright < 0.0
-    state = scene.state.nodes
-    pelvis = person.node_row("pelvis")
-    left, right, spine = (person.node("l_hip"), person.node("r_hip"), person.node("spine"))
-    normal = np.cross(right - left, spine - left)
-    normal /= np.linalg.norm(normal)
-    for rows in (state.pos, state.prev):  # the mirror image, at rest
-        rows[pelvis] -= 2.0 * np.dot(rows[pelvis] - left, normal) * normal
-    assert _torso_side(person) > 0.0
-    scene.run(0.25)
-    assert _torso_side(person) < 0.0, "the pelvis is back behind the hip bar"
-    assert person.node("neck")[1] > person.position[1] + 0.3, "the body still stands"
