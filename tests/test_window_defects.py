@@ -20,6 +20,7 @@ from twig_ecs.graphics.app import MAX_STEPS_PER_FRAME, load_pyglet_window, open_
 from twig_ecs.graphics.camera import MIN_EYE_HEIGHT, CameraSpec, action_point
 from twig_ecs.graphics.overlay import HELP_LINES
 from twig_ecs.graphics.picking import cursor_ray, near_miss, pick_node
+from twig_ecs.store import NODE_LOCKED
 
 SIZE = (480, 270)
 #: The playground seen from the stander's side, the bench on the left: both big enough to click.
@@ -356,9 +357,13 @@ def test_goal_results_and_pains_stay_on_screen_in_an_event_log(pyglet_window, tm
         done_at = ended[0]
         assert done_at > 0.5
 
-        child = scene.entity("small_child")  # a yank of a hand (or a foot, whichever is in view) hurts
+        # a yank of a hand (or a foot off the ground, whichever is in view) hurts; a foot
+        # planted on the ground is held there by its lock and barely moves
+        child = scene.entity("small_child")
+        flags = scene.state.nodes.flags
         hand = next(h for h in ("l_hand", "r_hand", "l_foot", "r_foot")
-                    if part_at(window, child.node(h)) == ("small_child", h))  # fmt: skip
+                    if part_at(window, child.node(h)) == ("small_child", h)
+                    and not flags[child.node_row(h)] & NODE_LOCKED)  # fmt: skip
         drag(window, mouse, screen_xy(window, child.node(hand)), (0, 90), frames=10, elapsed=1 / 60)
         for k in range(5):  # other messages come and take the status line
             viewer.say(f"message {k}")
