@@ -44,6 +44,11 @@ class Body:
     height: float
     params: dict = field(default_factory=dict)
 
+    @property
+    def rows(self) -> slice:
+        """Its node rows in the store (``PhysicsState.nodes``), in ``node_names`` order."""
+        return slice(self.node_start, self.node_start + len(self.node_names))
+
     def link_name(self, row: int, links) -> str:
         """The name ("a-b", from its node names) of this body's link at store row ``row``."""
         a, b = int(links.a[row]) - self.node_start, int(links.b[row]) - self.node_start

@@ -17,7 +17,7 @@ def test_a_crowd_has_one_entity_per_body_and_its_nodes_and_links_are_rows_of_tha
     assert len(scene.world.entities()) == st.bodies.count == 30  # no entity per node or link
     owned = np.full(st.nodes.count, -1)
     for _, body in scene.world.get_component(Body):
-        rows = slice(body.node_start, body.node_start + len(body.node_names))
+        rows = body.rows
         owned[rows] = body.index
         links = slice(body.link_start, body.link_start + body.link_count)
         assert (st.links.body[links] == body.index).all()

@@ -17,7 +17,7 @@ def drag_a_limp_child(distance: float = 4.0) -> dict:
         child = scene.spawn("humanoid", name="child", character=True, height=1.4, position=(0.3, 0.0, 1.5))
         child.go_limp()
         scene.run(2.0)  # lying on the ground
-        rows = slice(child.body.node_start, child.body.node_start + len(child.node_names))
+        rows = child.body.rows
         nodes = scene.state.nodes
         start = child.position
         goal = adult.drag("child", distance=distance)
@@ -88,7 +88,7 @@ def test_however_the_body_fell_both_hands_take_it_and_it_slides(fell_facing):
                             facing=fell_facing)  # fmt: skip
         child.go_limp()
         scene.run(2.0)
-        rows = slice(child.body.node_start, child.body.node_start + len(child.node_names))
+        rows = child.body.rows
         nodes = scene.state.nodes
         goal = adult.drag("child", distance=3.0)
         lowest = []

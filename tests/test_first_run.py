@@ -137,8 +137,8 @@ def test_editing_a_pure_python_behaviour_compiles_no_kernel_and_a_kernel_module_
 
     before = filed()
     sources = _copy_of_the_sources(tmp_path / "src")
-    assert _kernels_compiled_by_a_schoolyard_run(sources, cache) == []
-
+    # (no run of the unedited copy first: the edited copy's run compiling nothing and filing
+    # nothing new says more - an unedited kernel module that compiled would compile there too)
     watch = sources / "systems" / "behaviours" / "watch.py"  # plain Python: no kernel in it
     watch.write_text(watch.read_text() + "\n\ndef a_new_helper():\n    return 1\n")
     assert _kernels_compiled_by_a_schoolyard_run(sources, cache) == []
@@ -206,17 +206,26 @@ def test_a_kernel_called_with_a_constant_compiles_once_for_the_plain_type(tmp_pa
 
 
 def test_version_and_help_start_without_numba_or_the_scene():
-    probe = ("import sys; from twig_ecs.cli import main\n"
-             "try: main(sys.argv[1:])\n"
-             "except SystemExit: pass\n"
+    # one fresh process for the three commands, each checked after it has run (a module
+    # once imported stays: a command that imported one fails its own line and the later
+    # ones), then the lazy public names: one Python start, not four
+    probe = ("import json, sys; from twig_ecs.cli import main\n"
              "heavy = ('numba', 'twig_ecs.scene', 'twig_ecs.kernels')\n"
-             "print(sorted(m for m in heavy if m in sys.modules))")  # fmt: skip
-    for args in (["--version"], ["--help"], ["run", "--help"]):
-        result = run_python("-c", probe, *args)
-        assert result.returncode == 0, result.stderr
-        assert result.stdout.strip().endswith("[]"), (args, result.stdout[-300:])
-    lazy = run_python("-c", "import sys, twig_ecs; print('numba' in sys.modules, twig_ecs.Scene.__name__)")
-    assert lazy.stdout.split() == ["False", "Scene"]  # and the public names still import on use
+             "for args in (['--version'], ['--help'], ['run', '--help']):\n"
+             "    try: main(args)\n"
+             "    except SystemExit: pass\n"
+             "    print('after', json.dumps(args), sorted(m for m in heavy if m in sys.modules))\n"
+             "import twig_ecs\n"
+             "print('lazy', 'numba' in sys.modules, twig_ecs.Scene.__name__)")  # fmt: skip
+    result = run_python("-c", probe)
+    assert result.returncode == 0, result.stderr
+    checks = [line for line in result.stdout.splitlines() if line.startswith(("after ", "lazy "))]
+    assert checks == [
+        'after ["--version"] []',
+        'after ["--help"] []',
+        'after ["run", "--help"] []',
+        "lazy False Scene",  # and the public names still import on use
+    ], result.stdout[-600:]
 
 
 def test_unwritable_cache_falls_back_to_a_temporary_folder_with_one_warning(tmp_path):

@@ -109,6 +109,12 @@ def play_kicks(tmp_path_factory) -> tuple[list[dict], int]:
     return every, straddled
 
 
+#: The readers of ``play_kicks`` go to one worker (xdist's loadgroup), which plays the kicks
+#: once: each test is otherwise a unit of its own, and both workers would play them (3 s).
+PLAY_KICKS = pytest.mark.xdist_group("play-kicks")
+
+
+@PLAY_KICKS
 def test_kicks_start_with_a_backswing_the_kicking_foot_behind_the_standing_hip(play_kicks):
     kicks, _ = play_kicks
     swung = [k for k in kicks if "back" in k]
@@ -117,6 +123,7 @@ def test_kicks_start_with_a_backswing_the_kicking_foot_behind_the_standing_hip(p
     assert behind >= 0.8 * len(swung), f"{behind} of {len(swung)} kicks began with the foot behind the hip"
 
 
+@PLAY_KICKS
 def test_a_1_2_m_childs_kick_sends_the_ball_off_at_3_m_s_or_more(play_kicks):
     kicks, _ = play_kicks
     speeds = sorted(k["ball"] for k in kicks if "back" in k and k["at"] < SECONDS - 1.0)
@@ -124,6 +131,7 @@ def test_a_1_2_m_childs_kick_sends_the_ball_off_at_3_m_s_or_more(play_kicks):
     assert sum(s >= 3.0 for s in speeds) >= 0.7 * len(speeds), f"{np.round(speeds, 1)} m/s"
 
 
+@PLAY_KICKS
 def test_the_child_lines_up_to_kick_without_straddling_or_circling_the_ball(play_kicks):
     kicks, straddled = play_kicks
     assert straddled == 0, f"the ball lay between its feet for {straddled} steps"

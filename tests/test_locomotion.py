@@ -96,11 +96,17 @@ def test_planted_feet_do_not_slide_in_a_turn(scenes, speed):
 # -- the walk's figures (issue 14, "Done when"), measured as `twig walklab` does ------------
 
 
+#: The readers of ``adult_walks`` go to one worker (xdist's loadgroup), which measures the
+#: three walks once (a second), not each worker that gets one of them.
+ADULT_WALKS = pytest.mark.xdist_group("adult-walks")
+
+
 @pytest.fixture(scope="module")
 def adult_walks():
     return {v: walklab.measure_walk(1.75, v) for v in (0.8, 1.2, 1.6)}
 
 
+@ADULT_WALKS
 def test_an_adult_walks_1_2_m_s_with_a_persons_cadence_step_and_straight_knees(adult_walks):
     w = adult_walks[1.2]
     assert 1.8 <= w["cadence"] <= 2.1, f"{w['cadence']:.2f} steps/s (before issue 14: 3.0)"
@@ -112,6 +118,7 @@ def test_an_adult_walks_1_2_m_s_with_a_persons_cadence_step_and_straight_knees(a
     assert 1.0 <= w["speed"] <= 1.4, "it walks at about the pace it was asked for"
 
 
+@ADULT_WALKS
 def test_an_adult_walks_at_a_steady_pace_with_even_steps(adult_walks):
     # before (issue 35): the pelvis surged from 0.82 to 1.43 of its mean pace inside every
     # step, and left and right steps differed by 12% (0.62 / 0.55 m)
@@ -127,6 +134,7 @@ def test_a_standing_character_holds_its_pelvis_up_on_straight_legs(height):
     assert stand["pelvis"] >= 0.98 and stand["moves"] == 0, stand
 
 
+@ADULT_WALKS
 def test_slower_and_faster_adult_walks_scale_in_proportion(adult_walks):
     slow, normal, fast = (adult_walks[v] for v in (0.8, 1.2, 1.6))
     assert slow["step"] < normal["step"], "longer steps when walking faster"
@@ -172,6 +180,7 @@ def test_a_torso_thrown_over_in_a_running_turn_is_caught(scenes):
     assert max(pitch[worst + 12 :]) <= 25.0, "and is upright again within 0.2 s"
 
 
+@ADULT_WALKS
 def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, adult_walks):
     # before (issue 35): 1.89 steps/s of 0.9-1.0 m, airborne half the time, and in the first
     # seconds the same foot landed twice in a row

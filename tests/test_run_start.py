@@ -45,7 +45,7 @@ def test_a_carried_thing_is_no_ground_for_its_carriers_feet(tmp_path):
     # planted there and was left standing on air as the doll swung on
     with child_scene(tmp_path, doll=True) as scene:
         doll = scene.entity("doll").body
-        rows = np.arange(doll.node_start, doll.node_start + len(doll.node_names))
+        rows = np.arange(doll.rows.start, doll.rows.stop)
         scene.run(0.2)
         assert (scene.state.nodes.flags[rows] & NODE_CARRIED).all(), "a held doll is marked carried"
         scene.entity("child").release("left")

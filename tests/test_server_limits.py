@@ -288,7 +288,7 @@ def test_spawn_refuses_starting_commands_in_character_naming_them():
 def _break_the_ball(server) -> None:
     """A body whose simulation broke down (as a bad template makes one): NaN positions."""
     body = server.scene.entity("ball").body
-    server.scene.state.nodes.pos[body.node_start : body.node_start + len(body.node_names)] = math.nan
+    server.scene.state.nodes.pos[body.rows] = math.nan
 
 
 def test_a_world_with_nan_is_reported_never_sent_as_broken_json():

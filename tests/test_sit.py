@@ -16,7 +16,7 @@ PELVIS_BAR = 0.08  # m: the humanoid's pelvis bar radius at 1.75 m (content/bodi
 def seat_top(scene: Scene, name: str) -> float:
     """Height (m) of a seat's top surface: its highest node plus that node's radius."""
     body = scene.entity(name).body
-    rows = slice(body.node_start, body.node_start + len(body.node_names))
+    rows = body.rows
     return float((scene.state.nodes.pos[rows, 1] + scene.state.nodes.radius[rows]).max())
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from twig_ecs import Scene
+from twig_ecs import Scene, sweep
 from twig_ecs.cli import main
 from twig_ecs.errors import SceneError, TwigError
 from twig_ecs.sweep import SweepRun, plan_runs, run_cluster, run_local
@@ -88,18 +88,51 @@ def killing(workers: int, times: int, killed: list[int]) -> threading.Thread:
     return thread
 
 
+#: Simulated seconds of each run in the killed-worker test: a run of the schoolyard takes more
+#: than a second of wall time (half a second of CPU on a quiet machine), far longer than the
+#: killer's 0.2 s wait, so a warm worker is killed while its run is under way.
+KILLED_SECONDS = 8.0
+
+
 @pytest.mark.slow  # four runs in two workers, one of them killed once
-def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again():
+def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again(monkeypatch):
+    # The killer waits for the first row (a worker warm, its kernels loaded), then kills the
+    # worker given the next run, run 2, 0.2 s into it: a run truly under way, and the same one
+    # every time (it used to kill whichever worker came first 0.5 s after both were started,
+    # often while it was still starting up, and compared run 2: the killed one was run 0, 3 tries of 3)
+    given: dict[int, tuple[int, float]] = {}  # run index -> (worker pid, when it was first given)
+    gives: list[int] = []  # the run of every give, in order
+    give = sweep._Worker.give
+
+    def noting_give(worker, run):
+        give(worker, run)
+        gives.append(run.index)
+        given.setdefault(run.index, (worker.process.pid, time.monotonic()))
+
+    monkeypatch.setattr(sweep._Worker, "give", noting_give)
+    first_row = threading.Event()
     killed: list[int] = []
-    killer = killing(2, 1, killed)
-    # 15 simulated s a run (about a second of CPU): long enough that the killer meets a run under
-    # way (at 6 s the four runs were over before its 2 s wait was, and it found no worker to kill)
-    done = run_local("schoolyard", 15.0, plan_runs([0, 1, 2, 3], {}), workers=2)
+
+    def kill_run_2() -> None:
+        first_row.wait(timeout=120)
+        deadline = time.monotonic() + 60
+        while 2 not in given and time.monotonic() < deadline:
+            time.sleep(0.01)
+        pid, since = given[2]
+        time.sleep(max(0.0, since + 0.2 - time.monotonic()))
+        os.kill(pid, signal.SIGKILL)
+        killed.append(pid)
+
+    killer = threading.Thread(target=kill_run_2)
+    killer.start()
+    done = run_local("schoolyard", KILLED_SECONDS, plan_runs([0, 1, 2, 3], {}), workers=2,
+                     on_row=lambda row: first_row.set())  # fmt: skip
     killer.join()
-    assert len(killed) == 1
+    assert killed == [given[2][0]]
+    assert sorted(gives) == [0, 1, 2, 2, 3], gives  # the killed run, and only it, was given again
     assert [r["run"] for r in done] == [0, 1, 2, 3] and all(r["error"] == "" for r in done), done
-    with Scene.load("schoolyard", seed=2) as scene:  # a run done again is the same run
-        scene.run(15.0)
+    with Scene.load("schoolyard", seed=2) as scene:  # the run done again is the same run
+        scene.run(KILLED_SECONDS)
         assert done[2]["state_hash"] == scene.state_hash()
 
 

@@ -82,7 +82,7 @@ def make_character(scene: SceneView, entity: int, facing: float, spec: Character
     ch.nodes[row] = [body.node_index(r) for r in ROLES]
     ch.scale[row] = body.height / REFERENCE_HEIGHT
     pelvis = state.nodes.pos[ch.nodes[row, 0]]
-    lowest = state.nodes.pos[body.node_start : body.node_start + len(body.node_names), 1].min()
+    lowest = state.nodes.pos[body.rows, 1].min()
     lowest -= state.nodes.radius[ch.nodes[row, ROLES.index("l_foot")]]
     ch.stand_height[row] = (pelvis[1] - lowest) * STANCE
     pos = state.nodes.pos
@@ -321,7 +321,7 @@ class CharacterHandle(BodyHandle):
             if seat_body is None:
                 raise TwigError(f"'{self.name}' cannot sit on itself")
             pos = seat_body.node_positions
-            rows = slice(seat_body.body.node_start, seat_body.body.node_start + len(pos))
+            rows = seat_body.body.rows
             tops = pos[:, 1] + n.radius[rows]
             top = float(tops.max())
             # over the seat's top surface (its highest nodes), towards its middle

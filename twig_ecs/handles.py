@@ -75,7 +75,7 @@ class BodyHandle:
 
     def _rows(self) -> slice:
         b = self.body
-        return slice(b.node_start, b.node_start + len(b.node_names))
+        return b.rows
 
     def node_row(self, node: str) -> int:
         """The store row of one of this body's nodes (KeyError with suggestions if it has none)."""

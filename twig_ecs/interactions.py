@@ -143,7 +143,7 @@ class InteractionRecorder:
         for name in scene.entity_names:
             handle = scene.entity(name)
             body = handle.body
-            rows = range(body.node_start, body.node_start + len(body.node_names))
+            rows = range(body.rows.start, body.rows.stop)
             flags = st.nodes.flags
             if len(rows) == 1 and flags[rows[0]] & NODE_SPHERE and not flags[rows[0]] & NODE_LOCKED:
                 self.balls[name] = rows[0]
@@ -405,7 +405,7 @@ class InteractionRecorder:
         """Has body ``name`` a locked node (an axle's hub, a fence): it cannot be carried."""
         st = self.scene.state
         body = self.scene.entity(name).body
-        rows = slice(body.node_start, body.node_start + len(body.node_names))
+        rows = body.rows
         return bool((st.nodes.flags[rows] & NODE_LOCKED).any())
 
     def _link_error(self, body_index: int) -> float:

@@ -60,7 +60,7 @@ class StoryRecorder:
 
     def _is_axled(self, name: str) -> bool:
         body = self.scene.entity(name).body
-        rows = slice(body.node_start, body.node_start + len(body.node_names))
+        rows = body.rows
         return bool((self.scene.state.nodes.axle_a[rows] >= 0).any())
 
     def _goal_done(self, event) -> None:
@@ -106,7 +106,7 @@ class StoryRecorder:
         """Angular speed (rad/s) of an axled body about its axle, from one free node."""
         st = self.scene.state
         body = self.scene.entity(name).body
-        rows = range(body.node_start, body.node_start + len(body.node_names))
+        rows = range(body.rows.start, body.rows.stop)
         n = st.nodes
         for i in rows:
             if n.axle_a[i] >= 0 and n.axle_radius[i] > 0.1:

@@ -131,7 +131,7 @@ class MotionRecorder:
             if not self.scene.has_entity(name):
                 raise MotionError(f"'{name}' was removed while its motion was being recorded")
             body = self.scene.entity(name).body
-            track.frames.append(pos[body.node_start : body.node_start + len(track.node_names)].copy())
+            track.frames.append(pos[body.rows].copy())
             if track.faces is not None:
                 row = self._character_row(body)  # rows move when bodies are removed
                 assert row is not None, f"'{name}' stopped being a character"

@@ -342,5 +342,5 @@ def _loose(scene, name: str) -> bool:
     if hasattr(thing, "holding"):
         return False
     body = thing.body
-    rows = slice(body.node_start, body.node_start + len(body.node_names))
+    rows = body.rows
     return not bool((scene.state.nodes.flags[rows] & NODE_LOCKED).any())

@@ -68,7 +68,7 @@ def seat_frame(character, seat: str) -> SeatFrame:
     """
     scene = character.scene
     body = scene.entity(seat)
-    rows = slice(body.body.node_start, body.body.node_start + len(body.node_names))
+    rows = body.body.rows
     pos = scene.state.nodes.pos[rows]
     radius = scene.state.nodes.radius[rows]
     tops = pos[:, 1] + radius
@@ -237,7 +237,7 @@ class SitDown(Behavior):
         pelvises on it, and the places of other sit goals on it."""
         scene = character.scene
         body = scene.entity(seat)
-        rows = slice(body.body.node_start, body.body.node_start + len(body.node_names))
+        rows = body.body.rows
         pos = scene.state.nodes.pos[rows]
         lo, hi = pos.min(axis=0) - 0.2, pos.max(axis=0) + 0.2
         places = []

@@ -63,11 +63,11 @@ def mass_share(scene, source: int, body: int) -> float:
     if theirs is None or mine is None:
         return 1.0
     nodes = scene.state.nodes
-    rows = slice(theirs.node_start, theirs.node_start + len(theirs.node_names))
+    rows = theirs.rows
     if (nodes.flags[rows] & NODE_LOCKED).all():  # (a character's planted foot is locked too: all)
         return 1.0
     heavy = float(nodes.mass[rows].sum())
-    own = float(nodes.mass[mine.node_start : mine.node_start + len(mine.node_names)].sum())
+    own = float(nodes.mass[mine.rows].sum())
     return min(1.0, heavy / own) if own > 0.0 else 1.0
 
 

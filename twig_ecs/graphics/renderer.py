@@ -114,7 +114,7 @@ def build_tables(scene) -> SceneTables:
     rows: dict[str, tuple[int, int]] = {}
     for name in scene.entity_names:
         body = scene.entity(name).body
-        rows[name] = (body.node_start, body.node_start + len(body.node_names))
+        rows[name] = (body.rows.start, body.rows.stop)
         if not all(k in body.node_names for k in FACE_NODES):
             continue
         idx = {k: body.node_index(k) for k in FACE_NODES}
