@@ -180,17 +180,22 @@ def test_a_torso_thrown_over_in_a_running_turn_is_caught(scenes):
     assert max(pitch[worst + 12 :]) <= 25.0, "and is upright again within 0.2 s"
 
 
-@ADULT_WALKS
-def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, adult_walks):
-    # before (issue 35): 1.89 steps/s of 0.9-1.0 m, airborne half the time, and in the first
-    # seconds the same foot landed twice in a row
+def adult_running(scenes, after: float, seconds: float) -> walklab.Track:
+    """A 1.75 m adult asked to run at 2.5 m/s, recorded for ``seconds`` from ``after`` s into the run."""
     scene = Scene.load("empty")
     scenes.append(scene)
     adult = scene.spawn("humanoid", name="a", height=1.75, character=True)
     scene.run(0.5)
     adult.walk((0.0, 0.0, 2.5))
-    scene.run(1.0)
-    track = walklab.record(adult, 5.0)
+    scene.run(after)
+    return walklab.record(adult, seconds)
+
+
+@ADULT_WALKS
+def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, adult_walks):
+    # before (issue 35): 1.89 steps/s of 0.9-1.0 m, airborne half the time, and in the first
+    # seconds the same foot landed twice in a row
+    track = adult_running(scenes, after=1.0, seconds=5.0)
     run = walklab.walk_figures(track)
     assert 2.5 <= run["cadence"] <= 3.1, f"{run['cadence']:.2f} steps/s (before: 1.89)"
     assert 0.15 <= run["flight"] <= 0.40, f"airborne {run['flight']:.2f} of the time (before: 0.50)"
@@ -201,16 +206,11 @@ def test_an_adult_runs_2_5_m_s_at_a_persons_cadence_with_a_short_flight(scenes, 
     assert all(a != b for a, b in zip(feet, feet[1:], strict=False)), f"a foot landed twice in a row: {feet}"
 
 
+@ADULT_WALKS  # (reads the shared walks: one worker computes them)
 def test_a_runner_bends_its_elbows_and_swings_its_arms_against_its_legs(scenes, adult_walks):
     # before (issue 35): a runner's arms hung from the shoulders as a walker's do, kicked on at
     # each step - median elbow flexion 10 and 31 degrees at 2.5 m/s (a person's: ~90)
-    scene = Scene.load("empty")
-    scenes.append(scene)
-    adult = scene.spawn("humanoid", name="a", height=1.75, character=True)
-    scene.run(0.5)
-    adult.walk((0.0, 0.0, 2.5))
-    scene.run(2.0)
-    track = walklab.record(adult, 3.0)
+    track = adult_running(scenes, after=2.0, seconds=3.0)
     elbows = np.median(walklab.elbow_flexion(track), axis=0)
     assert np.all((elbows >= 60.0) & (elbows <= 120.0)), f"elbows bent {elbows.round()} deg (before: 10, 31)"
     assert walklab.arm_phase(track) <= -0.7, "each hand goes forward as its own foot goes back"
