@@ -281,3 +281,121 @@ def test_sigterm_stops_a_server_stepping_the_largest_body_it_allows():
             proc.kill()
             proc.wait(timeout=10)
         proc.stderr.close()
+
+
+# -- issue 32: a checkpoint now and then, and the commands since applied again ------------------------
+
+
+def _commands_and_steps(twig: Client) -> int:
+    """Steps and commands of every kind since a checkpoint, two of them refused; returns a goal id."""
+    twig.call("step", n=4)
+    twig.call("walk", character="big_child", velocity=[0.8, 0.0, 0.3])
+    twig.call("step", n=5)
+    twig.call("spawn", template="ball", name="ball2", position=[1.0, 1.5, 0.0])
+    goal = twig.call("approach", character="big_child", target="ball2")["goal"]
+    with pytest.raises(RemoteError):
+        twig.call("grab", character="parent", target="ball2")  # out of reach: applied, and refused
+    with pytest.raises(RemoteError, match="character may hold only"):  # too long to log: a checkpoint next
+        twig.call("spawn", template="humanoid", character={f"k{k:04d}": 0 for k in range(200)})
+    twig.call("step", n=7)
+    twig.call("look_at", character="parent", target="big_child")
+    twig.call("remove", name="ball")
+    twig.call("set_autonomous", character="small_child", autonomous=False)
+    twig.call("step", n=3)
+    twig.call("hug", character="small_child", target="parent", duration=1.0)
+    return goal
+
+
+def test_a_step_failing_after_several_commands_rolls_back_to_exactly_the_world_before_it():
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
+        goal = _commands_and_steps(twig)
+        srv.loop.call_soon_threadsafe(_break_next_step, srv.server)
+        with pytest.raises(RemoteError, match="boom"):
+            twig.call("step", n=1)
+        note = twig.wait_for(lambda n: n.kind == "simulation.error", timeout=30)
+        assert note is not None and note["rolled_back"] is True, note
+        failed = twig.call("status")
+        later = [twig.call("hug", character="big_child", target="parent")["goal"], twig.call("step", n=60)]
+        assert not any("rolling back failed" in line for line in srv.log), srv.log
+    with running_server(paused=True) as clean_srv, Client(port=clean_srv.port, timeout=60) as clean:
+        assert _commands_and_steps(clean) == goal
+        assert clean.call("status")["state_hash"] == failed["state_hash"] and failed["frame"] == 19
+        # the same world, not only the same positions: goals, autonomy and all go on alike
+        assert [
+            clean.call("hug", character="big_child", target="parent")["goal"],
+            clean.call("step", n=60),
+        ] == later
+
+
+def _count_checkpoints(monkeypatch) -> list[int]:
+    """The frames at which the server saves the world from now on (each a snapshot)."""
+    saved: list[int] = []
+    snapshot = Scene.snapshot
+
+    def counted(self):
+        saved.append(self.frame)
+        return snapshot(self)
+
+    monkeypatch.setattr(Scene, "snapshot", counted)
+    return saved
+
+
+def test_commands_between_steps_do_not_each_cost_a_checkpoint(monkeypatch):
+    """A snapshot of 1000 humanoids takes ~150 ms against a 10 ms step: one every CHECKPOINT_EVERY frames."""
+    from twig_ecs.server.rollback import CHECKPOINT_EVERY
+
+    saved = _count_checkpoints(monkeypatch)
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
+        for k in range(CHECKPOINT_EVERY + 10):
+            twig.call("walk", character="big_child", velocity=[0.1 * (k % 5), 0.0, 0.0])
+            twig.call("step", n=1)
+    assert saved == [0, CHECKPOINT_EVERY]  # before: one before every step after a command (130)
+
+
+def test_a_long_log_or_a_command_it_cannot_keep_brings_the_next_checkpoint_forward(monkeypatch):
+    from twig_ecs.server import rollback
+
+    monkeypatch.setattr(rollback, "MAX_LOGGED", 5)
+    saved = _count_checkpoints(monkeypatch)
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
+        twig.call("step", n=1)
+        for k in range(6):  # one more than the log holds
+            twig.call("walk", character="big_child", velocity=[0.1 * k, 0.0, 0.0])
+        twig.call("step", n=1)
+        with pytest.raises(RemoteError):  # refused with parameters too long to keep
+            twig.call("spawn", template="humanoid", character={f"k{k:04d}": 0 for k in range(200)})
+        twig.call("step", n=1)
+        twig.call("walk", character="big_child", velocity=[0.0, 0.0, 0.0])
+        twig.call("step", n=1)
+    assert saved == [0, 1, 2]
+
+
+def test_a_command_that_does_otherwise_when_applied_again_is_not_rolled_back_to(monkeypatch):
+    """A rollback that would serve another world than the one before the failed step says it failed."""
+    import dataclasses
+
+    from twig_ecs.server import methods
+
+    calls = []
+
+    def spawn_further_each_time(server, session, position, **params):  # not what the log says (a clock, say)
+        calls.append(position)
+        return methods.spawn(server, session, position=(len(calls), 1.0, 0.0), **params)
+
+    monkeypatch.setitem(
+        methods.METHODS, "spawn", dataclasses.replace(methods.METHODS["spawn"], fn=spawn_further_each_time)
+    )
+    with running_server(paused=True) as srv, Client(port=srv.port, timeout=60) as twig:
+        twig.call("step", n=2)
+        twig.call("spawn", template="ball", name="ball2")
+        twig.call("step", n=20)
+        srv.loop.call_soon_threadsafe(_break_next_step, srv.server)
+        with pytest.raises(RemoteError, match="boom.*; paused"):
+            twig.call("step", n=1)
+        note = twig.wait_for(lambda n: n.kind == "simulation.error", timeout=30)
+        assert note is not None and note["rolled_back"] is False, note
+        assert len(calls) == 2  # applied again once, on the restored checkpoint
+        assert any("rolling back failed" in line and "'spawn' at frame 2" in line for line in srv.log), (
+            srv.log
+        )
+        assert twig.call("ping") == "pong" and twig.call("status")["paused"] is True

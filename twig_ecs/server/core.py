@@ -33,17 +33,14 @@ from twig_ecs.clock import FixedStepClock
 from twig_ecs.components import Character
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Contact, Pain
-from twig_ecs.scene import Scene
 from twig_ecs.server import protocol as rpc
 from twig_ecs.server.access import check_token
 from twig_ecs.server.ports import DEFAULT_PORT, DEFAULT_TWIG_PORT  # noqa: F401 - their old home
 from twig_ecs.server.protocol import RPCError
+from twig_ecs.server.rollback import CHECKPOINT_EVERY, Rollback  # noqa: F401 - CHECKPOINT_EVERY: its old home
 from twig_ecs.server.session import Command, JsonSession, Session
 from twig_ecs.server.twigline import TwigSession
-from twig_ecs.trust import trusting
 
-#: Frames between the checkpoints a failed step is rolled back from (and after every command).
-CHECKPOINT_EVERY = 120
 #: Seconds a client of a server with a token has to authenticate before it is disconnected.
 AUTH_TIMEOUT = 30.0
 #: Most simulation steps run to catch up after a stall (then the clock drops the rest).
@@ -55,10 +52,12 @@ COMMAND_BUDGET = 0.008
 #: Most wall time one world job of a ``step`` call runs frames for before the loop looks
 #: in again (s): a stop, a SIGTERM or a window frame waits at most about this long.
 STEP_SLICE = 0.010
-#: Queued methods that leave the world as it was (no new rollback checkpoint after them).
-READ_ONLY = frozenset(
-    {"status", "list_entities", "get_state", "subscribe", "unsubscribe", "pause", "resume", "step"}
-)  # step: only steps, which the rollback replays
+#: Queued methods that leave the world as it was (the rollback's log leaves them out; ``step``
+#: only steps, which a rollback does again).
+READ_ONLY = frozenset(("status", "list_entities", "get_state", "goal_schemas", "subscribe", "unsubscribe",
+                       "pause", "resume", "step"))  # fmt: skip
+#: The scene's event kinds the server turns into notifications.
+HEARD = ("goal.done", "goal.failed", "behavior.changed", "pain", "contact")
 
 
 class Server:
@@ -68,8 +67,9 @@ class Server:
     :attr:`port`) and starts the simulation loop; ``await server.stop()`` ends both
     and closes the scene (if ``own_scene``). ``window``: a play window to draw each frame.
     ``recorder``: a :class:`~twig_ecs.replay.Recorder` that logs every applied command.
-    ``rollback``: save the world before every step so that a step that raises is undone
-    (costs a snapshot per step; without it a failed step may leave the world half-advanced).
+    ``rollback``: keep a checkpoint now and then and the commands applied since, so that
+    a step that raises is undone (:mod:`twig_ecs.server.rollback`; without it a failed
+    step may leave the world half-advanced).
     """
 
     def __init__(
@@ -98,9 +98,10 @@ class Server:
         self.autonomous = autonomous
         self.window = window
         self.own_scene = own_scene
-        self.rollback = rollback
         self.auth_timeout = AUTH_TIMEOUT
         self.log = log or (lambda text: print(f"twig serve: {text}", file=sys.stderr, flush=True))
+        self._rollback = Rollback(self.log)
+        self._rollback.enabled = rollback
         self.sessions: set[Session] = set()
         self.goal_owners: dict[int, Session] = {}
         self.steps_run = 0
@@ -134,18 +135,33 @@ class Server:
         self.scene = scene
         self.goal_owners.clear()
         self._pending.clear()
-        self._checkpoint = None  # a new scene (the window reloaded it): checkpoints of the old are void
+        self._rollback.clear()  # a new scene (the window reloaded it): the old one's checkpoint is void
         if not self.autonomous:
             for name in scene.entity_names:
                 handle = scene.entity(name)
                 if isinstance(handle, CharacterHandle):
                     handle.autonomous = False
-        for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
-            scene.on(kind, self._pending.append)
+        self._hear(scene)
         scene.step(0)  # compile the kernels and install the systems before clients come
         self._grabs = {}
         self._grabs = self._read_grabs()
         self._note_status()
+
+    def _hear(self, scene) -> None:
+        """Turn ``scene``'s events into notifications from now on (see :meth:`_flush`)."""
+        for kind in HEARD:
+            scene.on(kind, self._pending.append)
+
+    def detach(self) -> None:
+        """Stop hearing the scene's events (a server without clients done with a scene it lent)."""
+        handlers = self.scene.bus.handlers
+        for kind in HEARD:
+            handlers[kind] = [h for h in handlers.get(kind, []) if h != self._pending.append]
+
+    @property
+    def rollback(self) -> bool:
+        """Is a step that raises undone? (False once the world could not be saved.)"""
+        return self._rollback.enabled
 
     # -- lifetime ---------------------------------------------------------------------------
 
@@ -315,8 +331,9 @@ class Server:
             error = RPCError(rpc.INTERNAL_ERROR, f"internal error in {command.method.name}: {exc!r}")
         else:
             error = None
-        if command.method.name not in READ_ONLY:
-            self._changed = True  # the next step saves a new rollback checkpoint first
+        if command.method.name not in READ_ONLY:  # logged: a rollback applies it again
+            message, after = None if error is None else error.message, self.world_status["state_hash"]
+            self._rollback.note(frame, command.method.name, command.params, message, after)
         if self.recorder is not None:
             self._record(before, frame, command, error)
         self._deliver()  # what the command set off (a cancelled goal), before its answer
@@ -434,7 +451,7 @@ class Server:
 
     def _step_frame(self) -> None:
         """One step, or none at all: a step that raises is undone (see :meth:`_roll_back`)."""
-        self._keep_checkpoint()
+        self._rollback.keep(self.scene)
         try:
             self.scene.step(1)
             if self.recorder is not None and self.recorder.past_frames(self.scene.frame):
@@ -455,55 +472,29 @@ class Server:
         self.steps_run += 1
         self._flush()
 
-    # -- rollback: a checkpoint now and then, and the steps since replayed (they are deterministic) --
-
-    _checkpoint: bytes | None = None
-    _checkpoint_frame = -1
-    _changed = True  # a command changed the world since the checkpoint
-
-    def _keep_checkpoint(self) -> None:
-        """Save the world every CHECKPOINT_EVERY frames and before the first step after a command."""
-        if not self.rollback:
-            return
-        scene = self.scene
-        due = self._checkpoint is None or scene.frame - self._checkpoint_frame >= CHECKPOINT_EVERY
-        if not (due or self._changed):
-            return
-        try:
-            self._checkpoint = scene.snapshot()
-        except Exception as exc:  # a world that cannot be saved still runs, without the safety net
-            self.log(f"no rollback point (the world cannot be saved: {exc}); steps run without one")
-            self.rollback = False
-            self._checkpoint = None
-            return
-        self._checkpoint_frame = scene.frame
-        self._changed = False
+    # -- rollback: a checkpoint now and then, the commands since, all applied again (see rollback.py) --
 
     def _roll_back(self, frame: int) -> bool:
-        """Put the world back as it was at ``frame`` (before the failed step); True if possible.
-
-        The checkpoint is restored and stepped on to ``frame``: nothing but steps happened
-        since it was taken, and steps are deterministic, so this is the world as it was.
-        """
-        checkpoint, since = self._checkpoint, self._checkpoint_frame
-        if checkpoint is None or not since <= frame:
-            return False
-        try:
-            with trusting():  # our own snapshot: its plug-ins are already loaded
-                restored = Scene.restore(checkpoint)
-            restored.step(frame - since)  # no server listening yet: these events were sent before
-        except Exception:
-            self.log(f"rolling back failed:\n{traceback.format_exc()}")
+        """Put the world back as it was at ``frame`` (before the failed step); True if possible."""
+        known = self.world_status  # as the last world job left it: the failed step's own job began there
+        state_hash = known["state_hash"] if known["frame"] == frame else None  # else a `step` call's slice
+        restored = self._rollback.restore(frame, self._headless, state_hash)
+        if restored is None:
             return False
         old = self.scene
         self.scene = restored
         self._pending.clear()
-        for kind in ("goal.done", "goal.failed", "behavior.changed", "pain", "contact"):
-            restored.on(kind, self._pending.append)
+        self._hear(restored)
         if self.window is not None:
             self.window.viewer.scene = restored
         old.close()
         return True
+
+    def _headless(self, scene) -> Server:
+        """A server without clients for ``scene``: logged commands are applied to it as this one did."""
+        server = Server(scene, own_scene=False, log=self.log, rollback=False)  # autonomous: leaves them be
+        server.autonomous = self.autonomous  # and spawns as this server does
+        return server
 
     async def step_frames(self, n: int) -> None:
         """Advance ``n`` frames (the ``step`` method) on the world thread, a slice at a time.

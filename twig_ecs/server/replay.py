@@ -44,9 +44,15 @@ from twig_ecs.errors import TwigError
 from twig_ecs.files import read_text_bounded
 from twig_ecs.library import ContentLibrary
 from twig_ecs.scene import Scene
+from twig_ecs.server.commandlog import (  # noqa: F401 - MAX_*: the recording's limits are named here too
+    CLOCK_METHODS,
+    MAX_FAILED_PARAMS,
+    MAX_RECORDED_ERROR,
+    HeadlessSession,
+    apply_records,
+    command_record,
+)
 from twig_ecs.server.core import Server
-from twig_ecs.server.methods import bind, find_method
-from twig_ecs.server.protocol import RPCError
 from twig_ecs.trust import loading_data
 from twig_ecs.validate import MAX_SEED, seed  # noqa: F401 - MAX_SEED: twig_ecs.replay names it here
 from twig_ecs.yamldoc import MAX_BYTES as MAX_YAML_BYTES
@@ -62,38 +68,15 @@ MAX_REPLAY_BYTES = 8 * 1024 * 1024
 MAX_EMBEDDED_BYTES = 512 * 1024
 #: Frames stepped between two progress reports while replaying.
 PROGRESS_FRAMES = 600
-#: Methods whose effect on the world is only the passing of time (already in the frame numbers).
-CLOCK_METHODS = ("pause", "resume", "step")
 #: Size limit of a recording (bytes, header included): what a replay may hold, so every
 #: recording can be replayed (``--record-limit`` may only lower it).
 MAX_RECORD_BYTES = MAX_REPLAY_BYTES
-#: Longest parameters (bytes of JSON) a failed command keeps in a recording.
-MAX_FAILED_PARAMS = 1024
-#: Longest error message a recording keeps (characters).
-MAX_RECORDED_ERROR = 1000
 #: Room kept for the end line when a recording fills up (bytes).
 _END_ROOM = 400
 
 
 class ReplayError(TwigError):
     """A replay file that cannot be read or replayed."""
-
-
-class HeadlessSession:
-    """Stands in for a client session when commands are applied without a socket (replay)."""
-
-    def __init__(self) -> None:
-        self.subscriptions: set[str] = set()
-        self.authenticated = True
-
-
-def _jsonable(value: Any) -> Any:
-    """Bound parameters as JSON (vectors are tuples)."""
-    if isinstance(value, tuple | list):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    return value
 
 
 def scene_files(source: str | Path, content: list[str] | tuple[str, ...] = ()) -> dict[str, Any]:
@@ -154,12 +137,7 @@ class Recorder:
         A failed command's parameters longer than MAX_FAILED_PARAMS are left out. False,
         with nothing written, when the line would take the file past its limit.
         """
-        error = None if error is None else error[:MAX_RECORDED_ERROR]
-        record: dict[str, Any] = {"frame": frame, "method": method, "params": _jsonable(params),
-                                  "error": error}  # fmt: skip
-        if error is not None and (size := len(json.dumps(record["params"]))) > MAX_FAILED_PARAMS:
-            record["params"], record["params_cut"] = None, size  # it changed nothing: its error is enough
-        line = json.dumps(record) + "\n"
+        line = json.dumps(command_record(frame, method, params, error)) + "\n"
         if self.size + len(line.encode()) + _END_ROOM > self.limit:
             return False
         self.commands += 1
@@ -384,8 +362,6 @@ def replay(path: str | Path, log=None, progress: Callable[[int, int], None] | No
     with tempfile.TemporaryDirectory(prefix="twig-replay-") as tmp:
         scene = _load_scene(header, Path(tmp))
     server = Server(scene, autonomous=bool(header.get("autonomous", True)), log=log or (lambda text: None))
-    session = HeadlessSession()
-    diverged = 0
     final = end["end"] if end else (commands[-1]["frame"] if commands else 0)
 
     after_step = watch(scene) if watch is not None else None
@@ -401,30 +377,15 @@ def replay(path: str | Path, log=None, progress: Callable[[int, int], None] | No
             if progress is not None:
                 progress(scene.frame, final)
 
+    def unknown(name: str) -> ReplayError:
+        return ReplayError(f"unknown method '{name}' in the replay file")
+
+    def applied(item: dict[str, Any], error: str | None) -> None:
+        if progress is not None:
+            progress(scene.frame, final)
+
     try:
-        for item in commands:
-            step_to(item["frame"])  # read_replay checked they are in order
-            method = find_method(item["method"], scene)
-            if method is None:
-                raise ReplayError(f"unknown method '{item['method']}' in the replay file")
-            if method.name in CLOCK_METHODS or item.get("params_cut"):  # a cut one failed: it changed nothing
-                continue
-            error = None
-            try:
-                method.fn(server, session, **bind(method, item.get("params") or {}))
-            except RPCError as exc:
-                error = str(exc)
-            except KeyError as exc:
-                error = str(exc.args[0]) if exc.args else "unknown name"
-            except TwigError as exc:
-                error = str(exc)
-            except Exception as exc:  # a bug, which the server answers as an internal error and records
-                error = f"internal error in {method.name}: {exc!r}"
-            server._flush()  # noqa: SLF001 - as Server._apply does after every command
-            if (error is None) != (item.get("error") is None):
-                diverged += 1
-            if progress is not None:
-                progress(scene.frame, final)
+        diverged = apply_records(server, commands, step_to, unknown, applied)  # read_replay checked the order
         step_to(final)
         state_hash = scene.state_hash()
         recorded = end.get("state_hash") if end else None
