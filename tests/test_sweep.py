@@ -192,6 +192,17 @@ def test_the_plot_draws_the_share_of_runs_with_a_figure_above_zero_by_value(tmp_
         plot_chance(rows, "v", "kicks", tmp_path / "none.png")
 
 
+def _ctrl_c_at_its_default() -> None:
+    """In the sweep's process, before it starts: SIGINT at its default, as in a terminal.
+
+    A suite started in the background of a script (``pytest ... &``, or a tool that runs it
+    so) inherits SIGINT ignored, as POSIX shells do for background jobs, and every process it
+    starts would too; Python then keeps ignoring it, rightly (what ``nohup`` asks), and the
+    sweep ran all its runs and exited 0. The test is about a Ctrl-C that reaches the sweep.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow  # a sweep in a fresh process, stopped by Ctrl-C after its first row
 def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
     import subprocess
@@ -201,7 +212,8 @@ def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
     sweep = subprocess.Popen([sys.executable, "-m", "twig_ecs", "sweep", "schoolyard", "--seeds", "0-9",
                               "--seconds", "5", "-o", str(table)], stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True, env=env)  # fmt: skip
+                             stderr=subprocess.STDOUT, text=True, env=env,
+                             preexec_fn=_ctrl_c_at_its_default)  # fmt: skip
     said = []
     for line in sweep.stdout:  # the progress: stop it once a run is in
         said.append(line)
