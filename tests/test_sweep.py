@@ -162,7 +162,9 @@ def test_sweep_arguments_and_dotted_overrides_fail_clearly(capsys, tmp_path):
 def test_the_same_sweep_on_a_local_dask_cluster_gives_the_same_table():
     distributed = pytest.importorskip("distributed", reason="Dask's distributed is in the dev extras")
     runs = plan_runs([0, 1], {"attachment.safe_distance": ["2", "4"]})
-    here = run_local("schoolyard", SECONDS, runs, workers=2)
+    # the rows a local worker answers, computed here: a worker's row is run_one's (sweep.serve),
+    # and the table test checks the local workers' rows against `twig run` one by one
+    here = [sweep.run_one("schoolyard", SECONDS, [], run) for run in runs]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:  # fmt: skip
         there = run_cluster(cluster.scheduler_address, "schoolyard", SECONDS, runs)
