@@ -136,6 +136,7 @@ def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again(monkeypat
         assert done[2]["state_hash"] == scene.state_hash()
 
 
+@pytest.mark.long  # three worker processes, two killed: 3 s
 def test_a_run_whose_worker_dies_twice_is_an_error_row():
     killed: list[int] = []
     killer = killing(1, 2, killed)
