@@ -151,15 +151,27 @@ def yard_five_minutes(request, tmp_path_factory) -> YardRun:
 # -- workers ---------------------------------------------------------------------------------------
 
 
+#: The order tests start in: ``slow`` and ``soak`` ones, then ``long`` ones, then the rest.
+START_FIRST = (("slow", "soak"), ("long",))
+
+
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The ``slow`` and ``soak`` tests first, in their own order (a stable sort).
+    """The ``slow`` and ``soak`` tests first, then the ``long`` ones, each in their own order
+    (a stable sort).
 
     With workers the longest units start first and the many short ones fill in at the end,
-    so no worker is left finishing a long test while the other has nothing to do. It runs
-    after pytest's own ordering, which keeps the shared run's readers next to each other.
+    so no worker is left finishing a long test while the other has nothing to do (a worker
+    holds its next two tests: two X-window tests of 7-10 s left last in one worker kept it
+    busy 11 s after the other had finished). It runs after pytest's own ordering, which keeps
+    the shared run's readers next to each other.
     """
-    items.sort(key=lambda item: not any(item.get_closest_marker(mark) for mark in ("slow", "soak")))
+
+    def rank(item: pytest.Item) -> int:
+        marks = [k for k, names in enumerate(START_FIRST) if any(item.get_closest_marker(n) for n in names)]
+        return marks[0] if marks else len(START_FIRST)
+
+    items.sort(key=rank)
 
 
 @pytest.hookimpl(optionalhook=True)

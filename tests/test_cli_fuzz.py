@@ -360,6 +360,7 @@ def fuzz(kinds: tuple[str, ...], root: Path, timeout: float = 1800) -> list[str]
 FILE_KINDS = ("scene", "template", "random-yaml", "replay")
 
 
+@pytest.mark.long  # 850 CLI calls: 6 s
 def test_no_fuzzed_scene_template_yaml_or_replay_makes_the_cli_print_a_traceback(tmp_path):
     failures = fuzz(FILE_KINDS, tmp_path)
     assert not failures, f"{len(failures)} files:\n" + "\n".join(failures)

@@ -107,6 +107,7 @@ def _name(command: str) -> str:
     return f"{args.at}-{Path(args.output).name}"
 
 
+@pytest.mark.long  # each runs the schoolyard to its moment: 1-5 s
 @pytest.mark.parametrize("command", COMMANDS, ids=[_name(c) for c in COMMANDS])
 def test_a_docs_close_up_shows_the_characters_it_names(command, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)  # the command writes where a user running it would

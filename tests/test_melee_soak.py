@@ -21,6 +21,7 @@ def _assert_a_melee_passes(seed: int, seconds: float) -> None:
     assert sum(n for key, n in run.ended.items() if key.endswith(".done")) >= 4, run.ended
 
 
+@pytest.mark.long  # 1800 steps of 16 characters: 5 s a seed
 @pytest.mark.parametrize("seed", [0, 3])
 def test_half_a_minute_of_the_goal_melee_stays_within_the_soak_limits(seed):
     # before: seed 0 at frame 622 (a doll held by its knee and its pelvis in two hands, the

@@ -358,6 +358,7 @@ def test_caches_of_rows_never_come_from_a_file(scenes, monkeypatch):
     assert copy._scratch["lo"].shape[1] == 3  # noqa: SLF001
 
 
+@pytest.mark.long  # a million values refused: 3 s
 def test_a_snapshot_at_its_size_limits_is_refused_in_seconds():
     """A file built to cost the most to read per byte: a structure of a million tiny values."""
     import time

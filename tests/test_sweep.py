@@ -136,6 +136,7 @@ def test_a_worker_killed_mid_run_loses_only_its_run_which_is_run_again(monkeypat
         assert done[2]["state_hash"] == scene.state_hash()
 
 
+@pytest.mark.long  # three worker processes, two killed: 3 s
 def test_a_run_whose_worker_dies_twice_is_an_error_row():
     killed: list[int] = []
     killer = killing(1, 2, killed)
@@ -162,7 +163,9 @@ def test_sweep_arguments_and_dotted_overrides_fail_clearly(capsys, tmp_path):
 def test_the_same_sweep_on_a_local_dask_cluster_gives_the_same_table():
     distributed = pytest.importorskip("distributed", reason="Dask's distributed is in the dev extras")
     runs = plan_runs([0, 1], {"attachment.safe_distance": ["2", "4"]})
-    here = run_local("schoolyard", SECONDS, runs, workers=2)
+    # the rows a local worker answers, computed here: a worker's row is run_one's (sweep.serve),
+    # and the table test checks the local workers' rows against `twig run` one by one
+    here = [sweep.run_one("schoolyard", SECONDS, [], run) for run in runs]
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                                   dashboard_address=None) as cluster:  # fmt: skip
         there = run_cluster(cluster.scheduler_address, "schoolyard", SECONDS, runs)
@@ -192,6 +195,17 @@ def test_the_plot_draws_the_share_of_runs_with_a_figure_above_zero_by_value(tmp_
         plot_chance(rows, "v", "kicks", tmp_path / "none.png")
 
 
+def _ctrl_c_at_its_default() -> None:
+    """In the sweep's process, before it starts: SIGINT at its default, as in a terminal.
+
+    A suite started in the background of a script (``pytest ... &``, or a tool that runs it
+    so) inherits SIGINT ignored, as POSIX shells do for background jobs, and every process it
+    starts would too; Python then keeps ignoring it, rightly (what ``nohup`` asks), and the
+    sweep ran all its runs and exited 0. The test is about a Ctrl-C that reaches the sweep.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow  # a sweep in a fresh process, stopped by Ctrl-C after its first row
 def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
     import subprocess
@@ -201,7 +215,8 @@ def test_ctrl_c_stops_a_sweep_and_keeps_the_rows_it_finished(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
     sweep = subprocess.Popen([sys.executable, "-m", "twig_ecs", "sweep", "schoolyard", "--seeds", "0-9",
                               "--seconds", "5", "-o", str(table)], stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT, text=True, env=env)  # fmt: skip
+                             stderr=subprocess.STDOUT, text=True, env=env,
+                             preexec_fn=_ctrl_c_at_its_default)  # fmt: skip
     said = []
     for line in sweep.stdout:  # the progress: stop it once a run is in
         said.append(line)

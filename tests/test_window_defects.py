@@ -249,6 +249,7 @@ def test_key_c_brings_back_the_automatic_framing(pyglet_window):
 # -- 3. the window says when the simulation falls behind real time ---------------------------------------
 
 
+@pytest.mark.long  # frames in real time: 4.5 s
 def test_the_status_line_shows_the_real_time_factor_when_the_simulation_falls_behind(pyglet_window, tmp_path):
     key = pyglet_window.key
     window = open_window("schoolyard", size=SIZE, headless=True, screenshot_dir=tmp_path)
@@ -337,6 +338,7 @@ def test_deliberate_slow_motion_is_recorded_as_slow_motion(pyglet_window, tmp_pa
 # -- 5. a short event log: goal results and pains, with their times --------------------------------------
 
 
+@pytest.mark.long  # 3 s
 def test_goal_results_and_pains_stay_on_screen_in_an_event_log(pyglet_window, tmp_path):
     mouse = pyglet_window.mouse
     window = open_window("schoolyard", size=(640, 360), headless=True, screenshot_dir=tmp_path,

@@ -55,6 +55,7 @@ def play(display: str, scenario: str, out: Path, env: dict | None = None) -> dic
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.long  # the sit in real time at 60 fps: 7 s
 def test_a_click_on_the_bench_and_key_6_sit_the_character_on_it(display, tmp_path):
     seen = play(display, "sit", tmp_path)
     assert seen["selected"] == "stander"
@@ -68,6 +69,7 @@ def test_a_click_on_the_bench_and_key_6_sit_the_character_on_it(display, tmp_pat
     assert min(p[2] for p in seat) - 0.35 <= z <= max(p[2] for p in seat) + 0.35
 
 
+@pytest.mark.long  # frames at 5 a second: 4 s
 def test_two_missed_grabs_at_5_fps_leave_the_camera_alone(display, tmp_path):
     seen = play(display, "missed_grab", tmp_path)
     assert seen["fps"] < 7.0  # a slow machine's frame rate
@@ -76,6 +78,7 @@ def test_two_missed_grabs_at_5_fps_leave_the_camera_alone(display, tmp_path):
     assert all(m.startswith("missed big_child") for m in seen["messages"])
 
 
+@pytest.mark.long  # 28 frames at 4 a second: 10 s
 def test_at_4_fps_the_lag_shows_and_a_recording_plays_at_simulated_speed(display, tmp_path):
     import imageio_ffmpeg
 
@@ -108,8 +111,8 @@ def test_a_first_run_redraws_twice_a_second_and_answers_esc_while_the_kernels_co
     display, tmp_path, busy_core
 ):
     # an empty kernel cache: the window opens on the compile's progress, then the scene in slow
-    # motion; Esc is pressed once that has run for 12 s, the compile still going
-    env = {"TWIG_CACHE_DIR": str(tmp_path / "cache"), "TWIG_ESC_AFTER": "12"}
+    # motion; Esc is pressed once that has run for 6 s, the compile still going
+    env = {"TWIG_CACHE_DIR": str(tmp_path / "cache"), "TWIG_ESC_AFTER": "6"}
     seen = play(display, "first_run_esc", tmp_path, env=env)
     assert seen["max_gap"] <= 0.5, seen  # issue 33: at least two frames a second (it was 3.5-24 s)
     assert seen["esc_s"] <= 1.0, seen  # from xdotool's start to the window closed

@@ -245,7 +245,7 @@ def first_run_esc(out: Path) -> dict:
     window = open_window("schoolyard", size=SIZE, screenshot_dir=out)
     run = FirstRun(window)
     assert window.loading is not None, "the kernel cache is not empty"
-    esc_after = float(os.environ.get("TWIG_ESC_AFTER", "12"))
+    esc_after = float(os.environ.get("TWIG_ESC_AFTER", "6"))
     try:
         while not run.slow or run.slow[-1][0] - run.slow[0][0] < esc_after:
             assert window.loading is not None, "the build ended before Esc"
