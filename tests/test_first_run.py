@@ -193,6 +193,67 @@ def test_every_kernel_is_filed_by_our_cache_locator():
     assert {name: kind for name, kind in found.items() if kind != KernelCacheLocator.__name__} == {}
 
 
+def test_a_start_walks_no_source_it_walked_before_and_a_broken_index_only_costs_a_walk(tmp_path, monkeypatch):
+    # every start hashes the kernel modules' import closures; their syntax-tree walk (0.2-0.4
+    # s of each cached start, each sweep worker's and CLI call's) is kept by source hash
+    import ast
+
+    from twig_ecs import kernelcache as kc
+
+    paths = [p for p in map(kc.module_file, kc.kernel_modules()) if p is not None]
+    monkeypatch.setattr(kc, "_folder", tmp_path)
+    walks = []
+    monkeypatch.setattr(
+        ast, "parse", lambda source, *a, parse=ast.parse, **k: walks.append(1) or parse(source, *a, **k)
+    )
+
+    def versions_in_a_fresh_start() -> list[str]:
+        kc._import_index.cache_clear()
+        kc._imported_by.cache_clear()
+        walks.clear()
+        return [kc.module_version(p) for p in paths]
+
+    first = versions_in_a_fresh_start()
+    assert len(walks) >= len(paths), "the first start walks every source"
+    assert versions_in_a_fresh_start() == first and walks == [], "the next walks none"
+    (tmp_path / kc.IMPORT_INDEX).write_text("{not json")
+    assert versions_in_a_fresh_start() == first and len(walks) >= len(paths), "a broken index: walked again"
+    assert versions_in_a_fresh_start() == first and walks == [], "and written again"
+
+
+def test_old_versions_of_a_kernel_module_are_pruned_beyond_the_newest_few_unused_for_an_hour(
+    tmp_path, monkeypatch
+):
+    # each edit of a kernel module's sources compiles a new version of its folder: a
+    # developer's cache kept every one (643 MB on this box)
+    from twig_ecs import kernelcache as kc
+
+    monkeypatch.setattr(kc, "_folder", tmp_path)
+    kc._module_folders.cache_clear()
+    now = __import__("time").time()
+    # five versions used within the hour (the oldest of them past the newest four, but maybe
+    # still in use: a program started before the edits) and three unused for 2, 4 and 6 hours
+    ages = {f"{k:012x}": 600.0 * (k + 1) for k in range(5)} | {
+        f"{k:012x}": 7200.0 * (k - 4) for k in range(5, 8)
+    }
+    for version, age in ages.items():
+        folder = tmp_path / f"physics.fake-{version}"
+        folder.mkdir()
+        os.utime(folder, (now - age, now - age))
+    (tmp_path / "physics.other-000000000000").mkdir()  # another module's: not this one's to prune
+    os.utime(tmp_path / "physics.other-000000000000", (now - 1e6, now - 1e6))
+    current = tmp_path / f"physics.fake-{'c' * 12}"
+    current.mkdir()
+    os.utime(current, (now - 1e6, now - 1e6))  # in use now: touched, kept
+    try:
+        kc._prune_module("physics.fake", current)
+    finally:
+        kc._module_folders.cache_clear()
+    kept = sorted(p.name.rpartition("-")[2] for p in tmp_path.glob("physics.fake-*"))
+    assert kc.KEEP_OLD_MODULE < 5 and kept == sorted([*(f"{k:012x}" for k in range(5)), "c" * 12])
+    assert current.stat().st_mtime > now - 60 and (tmp_path / "physics.other-000000000000").is_dir()
+
+
 def test_a_kernel_called_with_a_constant_compiles_once_for_the_plain_type(tmp_path):
     # numba types a constant argument of a call from one kernel to another as its literal
     # (Literal[int](0)) and compiled the callee again for it: a second specialisation of the
