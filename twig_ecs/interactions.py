@@ -5,7 +5,8 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
 
 - **kicks**: each time a ball speeds up, the gap between the ball and the nearest leg
   capsule (thigh or shin) of any character, over this step and the one before (the
-  contact happens inside the step; projection has separated them by its end);
+  contact happens inside the step; projection has separated them by its end), and how
+  fast and how high (its underside off the ground) the ball ever went;
 - **pushes**: each time a turning body (on an axle: the merry-go-round) spins up, the gap
   between the nearest character's hand and the nearest of its bars;
 - **hugs**: frames in which a hug holds (its ``hold`` phase) with both of the hugger's
@@ -154,6 +155,8 @@ class InteractionRecorder:
         self.pushes: dict[str, list[_Event]] = {r: [] for r in self.rides}
         self._speed = {b: 0.0 for b in self.balls}
         self._leg_gap = {b: math.inf for b in self.balls}
+        self._fastest = {b: 0.0 for b in self.balls}  # m/s
+        self._highest = {b: 0.0 for b in self.balls}  # m of its underside above the ground
         self._spin = {r: 0.0 for r in self.rides}
         self._hand_gap = {r: math.inf for r in self.rides}
         self.hugs: dict[tuple[str, str], _Hug] = {}
@@ -196,6 +199,8 @@ class InteractionRecorder:
         dt = scene.dt
         for name, row in self.balls.items():
             speed = float(np.linalg.norm(pos[row] - prev[row])) / dt
+            self._fastest[name] = max(self._fastest[name], speed)
+            self._highest[name] = max(self._highest[name], float(pos[row, 1] - st.nodes.radius[row]))
             gap_now, by = self._nearest_leg(chars, row)
             gap = min(gap_now, self._leg_gap[name])
             if speed - self._speed[name] > SPEED_UP:
@@ -456,6 +461,8 @@ class InteractionRecorder:
                 "touched_fraction": round(sum(g <= TOUCH_GAP for g in gaps) / len(gaps), 3) if gaps else None,
                 "median_gap_m": round(float(np.median(gaps)), 3) if gaps else None,
                 "gaps_m": [round(g, 3) for g in gaps[:200]],
+                "max_speed_m_s": round(self._fastest[name], 2),
+                "max_height_m": round(self._highest[name], 2),
             }
         for name, events in self.pushes.items():
             gaps = [e.gap for e in events]
