@@ -57,6 +57,7 @@ class Kicking:
     aim: np.ndarray | None = None  # unit ground vector the kick under way sends the toy along
     contact: np.ndarray | None = None  # where the swinging foot's arc ends, through the toy
     onward: bool = False  # ``aim_at`` is straight on from the side the child came from (one kick)
+    passing: bool = False  # ``aim_at`` is a pass to a playmate
 
 
 @dataclass(slots=True)
@@ -268,11 +269,8 @@ class Play(Behavior):
         away from any turning deck, and not across one; and onwards from where the kicker
         stands (within 60 degrees of the way from it to the toy, so it kicks from its own
         side instead of walking round the toy). Of a few draws, the first that does both,
-        else the best: the clearest of the decks, then the most onwards. A playmate going
-        for the toy gets it passed (:meth:`_pass_to`)."""
-        passed = self._pass_to(kicker, toy_name, toy_at)
-        if passed is not None:
-            return passed
+        else the best: the clearest of the decks, then the most onwards. (A playmate going
+        for the toy gets it passed instead: :meth:`_pass_to`.)"""
         decks = self._decks()
         toward = _flat_unit(toy_at - kicker.position)
         best, score = None, (-np.inf, -np.inf)
@@ -343,6 +341,12 @@ class Play(Behavior):
             # kicked on from its own side: the next kick aims near home again (the game
             # itself kept: the kicking foot may still be coming down)
             game.aim_at, game.chosen_at, game.onward = self._target(playful.toy, ball, character), now, False
+        if not game.passing and not game.phase and now >= game.kick_ends + SETTLE:
+            # a playmate going for the toy (now, or since the child chose where to send it)
+            # gets it passed; the pass stands until the toy gets there or goes stale
+            passed = self._pass_to(character, playful.toy, ball)
+            if passed is not None:
+                game.aim_at, game.chosen_at, game.onward, game.passing = passed, now, False, True
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
             game.counted = True
