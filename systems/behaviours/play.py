@@ -12,6 +12,8 @@ slows as it comes up and kicks with the foot on the line through the toy: a back
 follow-through, each a ballistic arc (:func:`twig_ecs.systems.behaviours.kick.launch_kick`),
 the other foot planted beside and a little behind the toy. The toy moves only because the
 leg's capsules hit it; a kick that misses leaves it lying, and the child lines up again.
+Children playing with one toy take turns (the last to kick holds back while another goes
+for it) and pass (a child not tied to a caregiver sends it to a playmate going for it).
 """
 
 from __future__ import annotations
