@@ -256,3 +256,32 @@ def test_a_big_child_passes_the_ball_to_a_small_one_and_they_take_turns(tmp_path
     assert all(a != "big" or b != "big" for a, b in zip(who, who[1:], strict=False)), f"kicks: {kicks}"
     # its first kick is a pass: to just short of the small child going for the ball
     assert sent[0] < 1.5, f"the big child sent the ball {sent[0]:.2f} m from the small one"
+
+
+@pytest.mark.parametrize("past", [0.05, 0.2], ids=["just-past", "well-past"])
+def test_an_anxious_child_lined_up_on_the_ball_kicks_it_before_it_runs_home(tmp_path, past):
+    # anxiety past its run-home mark while the child stands lined up behind the ball: just
+    # past it, it kicks first (schoolyard seed 0's small child ran home 0.5 s before its kick,
+    # five minutes without one); well past it, home at once
+    from twig_ecs.components import Attachment
+    from twig_ecs.systems.behaviours.play import Kicking, Playful
+
+    path = tmp_path / "kick_then_home.yaml"
+    path.write_text(FROM_HOME.replace("BALL", "0.6, 0, 5.0"))
+    with Scene.load(path, seed=0) as scene:
+        kid = scene.character_handle(scene.entity("kid").entity)
+        attachment = scene.world.component_for_entity(kid.entity, Attachment)
+        while scene.time < 15.0 and attachment.finishing_until < scene.time:
+            scene.step()
+        assert attachment.finishing_until >= scene.time, "it lines up behind the ball"
+        attachment.anxiety = attachment.return_at + past
+        playful = scene.world.component_for_entity(kid.entity, Playful)
+        touches, kicked = playful.touches, False
+        while scene.time < 20.0 and kid.behaviour != "hug":
+            scene.step()
+            kicked |= bool(scene.world.component_for_entity(kid.entity, Kicking).phase)
+        assert kid.behaviour == "hug", "then it runs home"
+        if past < 0.15:
+            assert kicked and playful.touches == touches + 1, "it kicks the ball first"
+        else:
+            assert not kicked, "it runs home without the kick"

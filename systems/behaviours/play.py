@@ -122,6 +122,7 @@ OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kick
 PASS_RANGE = 9.0  # m from the toy within which a playmate is passed to
 PASS_SHORT = 1.0  # m short of the playmate that a pass aims: the toy rolls up to it
 TURN_WAIT = 12.0  # s after its kick at most that a child holds back while a playmate goes for the toy
+HOLD_OFF = 0.25  # s an attached child on its kicking spot holds off running home (renewed each step there)
 WAIT_OFF = 2.0  # m (at 1.75 m tall) from the toy that a child waiting its turn keeps
 
 
@@ -356,6 +357,7 @@ class Play(Behavior):
                 playful.touches += 1
         character.look_at(playful.toy)
         if game.phase:
+            self._hold_off_home(character, now)
             self._kick_on(character, game)
             return
         landing = game.foot and now < game.kick_ends + LAND_WAIT and not character.is_locked(game.foot)
@@ -385,6 +387,12 @@ class Play(Behavior):
                 if np.hypot(along[0], along[2]) < 1e-6:
                     along = np.array([aim[2], 0.0, -aim[0]]) * (inside == spot[[0, 2]])[[0, 0, 1]]
                 aim = _flat_unit(along)
+                if float((ball - character.position) @ aim) < 0.0:
+                    # along the fence from the child's own side: the way round the toy to
+                    # its far side runs by the boards, and the steering held a child off it
+                    # (seed 1's big child stepped to and fro 1 m off a ball by the fence for
+                    # most of five minutes once a foot no longer squeezed it out of the corner)
+                    aim = -aim
                 left = np.array([aim[2], 0.0, -aim[0]])
                 spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
                 inside = np.clip(spot[[0, 2]], lo + FENCE_ROOM * scale, hi - FENCE_ROOM * scale)
@@ -398,6 +406,10 @@ class Play(Behavior):
                         # where it stands, into the corner, and it comes back off the boards
                         aim = _flat_unit(ball - character.position)
                         spot = ball - aim * BEHIND * scale
+                        # ... and keeps that aim until the kick (recomputed from where it
+                        # stands each step, the aim swung as it moved, and seed 1's big child
+                        # stepped to and fro 0.9 m off a ball by the fence for 10 s at a time)
+                        game.aim_at, game.chosen_at, game.onward = ball + aim * ONWARD, now, True
                     left = np.array([aim[2], 0.0, -aim[0]])
         spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
@@ -416,6 +428,7 @@ class Play(Behavior):
                 if on_line and speed <= ROLLING:
                     # on the kicking line behind the spot: the last steps straight along it
                     # (facing the aim when it gets there), slowing as it comes up
+                    self._hold_off_home(character, now)
                     if far <= LINE_UP * scale:
                         # on the spot, a foot still in the air: the way to the spot is noise
                         # there, and the body turns to the way it walks (a 1.2 m child turned
@@ -450,7 +463,15 @@ class Play(Behavior):
                 walk *= least / pace  # (at the goal itself it would circle it)
             character.walk(walk)
             return
+        self._hold_off_home(character, now)
         self._kick(character, foot, ball, aim, game, speed)
+
+    def _hold_off_home(self, character, now: float) -> None:
+        """On the kicking line's last steps, on the spot or kicking: an attached child finishes
+        the kick before it runs home (see :data:`~twig_ecs.systems.behaviours.attachment.FINISH_MARGIN`)."""
+        attachment = self.world.try_component(character.entity, Attachment)
+        if attachment is not None:
+            attachment.finishing_until = now + HOLD_OFF
 
     def _from_its_side(self, character, game: Kicking, ball: np.ndarray, aim: np.ndarray) -> np.ndarray:
         """The aim of an attached child's next kick: ``aim`` - unless the child is on the
