@@ -18,8 +18,8 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
   two are within arm's reach, of those the share they face each other (each one's
   facing within 60 degrees of the other), and how far the victim got pushed or went
   from where the fight began;
-- **the yard** (a scene fenced round): how far any free node got beyond the fences'
-  box, and which bodies did;
+- **the yard** (a scene fenced round): how far any free node no higher than the fences
+  got beyond their box (through them, or over and down), and which bodies did;
 - **carried things**: the largest link error of a body a character holds, how deep it
   sank into its carrier, and pain the holder felt from what it holds or let go of within
   the last second.
@@ -166,6 +166,7 @@ class InteractionRecorder:
         self._held_before: dict[str, set[str]] = {}
         self.hug_pain_events = 0
         self.yard = yard_of(scene)
+        self.fence_top = _fence_top(scene) if self.yard is not None else math.inf
         self.outside = 0.0
         self.escaped: set[str] = set()
         self.moments: list[Moment] = []
@@ -230,13 +231,16 @@ class InteractionRecorder:
             self._measure_yard()
 
     def _measure_yard(self) -> None:
-        """How far beyond the fenced box any free node is (m), and whose it is."""
+        """How far beyond the fenced box any free node no higher than the fence is (m), and
+        whose it is (a hand reaching over the top is not out: a 1.35 m child's hand at 1.09 m
+        swung 2.4 cm over a 1.05 m fence as it kicked a ball lying by it)."""
         st = self.scene.state
         n = st.nodes.count
         lo, hi = self.yard
         xz = st.nodes.pos[:n][:, [0, 2]]
         beyond = np.maximum(np.maximum(lo - xz, xz - hi), 0.0).max(axis=1)
         beyond[(st.nodes.flags[:n] & NODE_LOCKED) != 0] = 0.0
+        beyond[st.nodes.pos[:n, 1] > self.fence_top] = 0.0
         worst = float(beyond.max()) if n else 0.0
         if worst > 0.0:
             self.outside = max(self.outside, worst)
@@ -508,3 +512,15 @@ class InteractionRecorder:
             for name, c in self.carried.items()
         }
         return out
+
+
+def _fence_top(scene) -> float:
+    """Height (m) of the lowest top among the yard's static bodies wider than 2 m (the fences
+    :func:`~twig_ecs.systems.behaviours.play.yard_of` boxes)."""
+    st = scene.state
+    n = st.nodes.count
+    body, flags, pos = st.nodes.body[:n], st.nodes.flags[:n], st.nodes.pos[:n]
+    free = np.bincount(body, (flags & NODE_LOCKED) == 0, st.bodies.count)
+    tops = [float(pos[body == b][:, 1].max()) for b in np.flatnonzero(free == 0)
+            if np.ptp(pos[body == b][:, [0, 2]], axis=0).max() > 2.0]  # fmt: skip
+    return min(tops) if tops else math.inf
