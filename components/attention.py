@@ -42,5 +42,6 @@ class Attachment:
     look_back_at: float = 0.35  # anxiety at which it glances back now and then
     return_at: float = 0.75  # anxiety at which it runs back for a hug
     anxiety: float = 0.0
+    finishing_until: float = -1e9  # s: an action about to end (a kick) holds off the run home till then
     hugs: int = 0
     look_backs: int = 0

@@ -503,3 +503,29 @@ def test_a_run_home_hug_that_reached_the_caregiver_soothes_the_child(status, rea
     attachment = Attachment(caregiver="parent", anxiety=0.6)
     Soothe(attachment)(Goal("hug", {}, status=status, reason=reason))
     assert (attachment.anxiety == 0.0) is soothed and attachment.hugs == int(soothed)
+
+
+def test_a_kick_into_a_fence_corner_is_stopped_by_the_ball_and_never_flings_it(tmp_path, scenes):
+    # a ball in the corner of two fences, 0.2 m off each, and the right foot swung at it
+    # into the corner: the foot drove on through loose balls, and this one, squeezed
+    # between it and the boards, left upwards (3.3 m high at 8 m/s, landing 2 m behind the
+    # child; seeds 0 and 1 of the schoolyard: 7 m at 13-14 m/s)
+    scene = _scene(
+        tmp_path,
+        scenes,
+        KID + "}\n  - {name: ball, body: ball, position: [0, 0, 2]}\n"
+        "  - {name: fence_a, body: fence, position: [-4.9, 0, 0.65], facing: 0}\n"  # along x at z = 0.65
+        "  - {name: fence_b, body: fence, position: [0.1, 0, -4.35], facing: -90}\n",  # along z at x = 0.1
+    )
+    scene.run(1.0)
+    kid, ball = scene.character_handle(scene.entity("kid").entity), scene.entity("ball")
+    ball.translate(tuple(np.array([-0.1, 0.11, 0.45]) - ball.position))
+    scene.run(0.3)
+    launch_kick(kid, "r_foot", ball.position + np.array([0.1, 0.05, 0.3]), 0.12)
+    top, fastest = 0.0, 0.0
+    for _ in range(120):
+        scene.step()
+        top, fastest = max(top, ball.position[1]), max(fastest, float(np.linalg.norm(ball.velocity)))
+    assert top < 0.3, f"the ball rose to {top:.2f} m"
+    assert fastest < 3.0, f"the ball left at {fastest:.1f} m/s"
+    assert ball.position[0] < 0.1 and ball.position[2] < 0.65, "it stays in the corner's yard"

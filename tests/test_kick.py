@@ -200,3 +200,88 @@ def test_a_child_coming_from_its_caregiver_kicks_a_ball_further_out_from_its_own
     # never further from home than the ball (before, 0.31 and 0.16 m: round its far side)
     assert beyond < 0.0, f"it went {beyond:.2f} m round the far side of the ball before kicking it"
     assert moved > 0.3, f"the kick moved the ball {moved:.2f} m"
+
+
+# -- two children and one ball: passes and turns ------------------------------------------------
+
+PLAYMATES = (
+    "twig: 1\nentities:\n"
+    "  - {name: parent, body: humanoid, height: 1.75, position: [0, 0, 0], character: true}\n"
+    "  - {name: kid, body: humanoid, height: 1.05, position: [0.3, 0, 1.2], character: true,\n"
+    "     behaviors: [{use: attachment, caregiver: parent, safe_distance: 2.5},\n"
+    "                 {use: play, toy: ball, joy: 0.55, speed: 1.4}]}\n"
+    "  - {name: big, body: humanoid, height: 1.35, position: [7.0, 0, 4.2], character: true,\n"
+    "     behaviors: [{use: play, toy: ball, joy: 0.6, speed: 2.0}]}\n"
+    "  - {name: ball, body: ball, position: [5.0, 0, 4.2]}\n"
+)
+
+
+def kicks_of_two(path, seed: int, seconds: float) -> tuple[list[tuple[float, str]], list[float]]:
+    """Every kick begun in ``seconds`` (time, kicker) in order, and for each of the big
+    child's kicks how far (m) the place it sent the ball to lay from where the small child
+    was when the big one chose it."""
+    from twig_ecs.systems.behaviours.play import Kicking
+
+    with Scene.load(path, seed=seed) as scene:
+        players = {name: scene.character_handle(scene.entity(name).entity) for name in ("kid", "big")}
+        kicks, sent, last, kid_then = [], [], dict.fromkeys(players, -1.0), None
+        chosen = None
+        while scene.time < seconds:
+            scene.step()
+            big = scene.world.try_component(players["big"].entity, Kicking)
+            if big is not None and big.chosen_at != chosen:  # where the kid was when it chose
+                chosen, kid_then = big.chosen_at, players["kid"].position
+            for name, player in players.items():
+                game = scene.world.try_component(player.entity, Kicking)
+                if game is not None and game.kicked_at > last[name]:
+                    last[name] = game.kicked_at
+                    kicks.append((game.kicked_at, name))
+                    if name == "big":
+                        sent.append(float(np.hypot(*(game.aim_at - kid_then)[[0, 2]])))
+        return kicks, sent
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_big_child_passes_the_ball_to_a_small_one_and_they_take_turns(tmp_path, seed):
+    # the quicker child used to kick the ball away from under the small one, again and
+    # again, and to anywhere in the yard (schoolyard seed 0: the 1.05 m child, which may not
+    # go far from its caregiver, touched the ball 0 times in 300 s). Before: the big child
+    # kicked twice before the small one once on seeds 1-3, sending the ball 2-6 m from it
+    path = tmp_path / "two.yaml"
+    path.write_text(PLAYMATES)
+    kicks, sent = kicks_of_two(path, seed, 30.0)
+    who = [name for _, name in kicks]
+    assert who[:2] == ["big", "kid"], f"kicks: {kicks}"
+    # no two kicks in a row by the big child while the small one plays: it waits its turn
+    assert all(a != "big" or b != "big" for a, b in zip(who, who[1:], strict=False)), f"kicks: {kicks}"
+    # its first kick is a pass: to just short of the small child going for the ball
+    assert sent[0] < 1.5, f"the big child sent the ball {sent[0]:.2f} m from the small one"
+
+
+@pytest.mark.parametrize("past", [0.05, 0.2], ids=["just-past", "well-past"])
+def test_an_anxious_child_lined_up_on_the_ball_kicks_it_before_it_runs_home(tmp_path, past):
+    # anxiety past its run-home mark while the child stands lined up behind the ball: just
+    # past it, it kicks first (schoolyard seed 0's small child ran home 0.5 s before its kick,
+    # five minutes without one); well past it, home at once
+    from twig_ecs.components import Attachment
+    from twig_ecs.systems.behaviours.play import Kicking, Playful
+
+    path = tmp_path / "kick_then_home.yaml"
+    path.write_text(FROM_HOME.replace("BALL", "0.6, 0, 5.0"))
+    with Scene.load(path, seed=0) as scene:
+        kid = scene.character_handle(scene.entity("kid").entity)
+        attachment = scene.world.component_for_entity(kid.entity, Attachment)
+        while scene.time < 15.0 and attachment.finishing_until < scene.time:
+            scene.step()
+        assert attachment.finishing_until >= scene.time, "it lines up behind the ball"
+        attachment.anxiety = attachment.return_at + past
+        playful = scene.world.component_for_entity(kid.entity, Playful)
+        touches, kicked = playful.touches, False
+        while scene.time < 20.0 and kid.behaviour != "hug":
+            scene.step()
+            kicked |= bool(scene.world.component_for_entity(kid.entity, Kicking).phase)
+        assert kid.behaviour == "hug", "then it runs home"
+        if past < 0.15:
+            assert kicked and playful.touches == touches + 1, "it kicks the ball first"
+        else:
+            assert not kicked, "it runs home without the kick"

@@ -5,7 +5,8 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
 
 - **kicks**: each time a ball speeds up, the gap between the ball and the nearest leg
   capsule (thigh or shin) of any character, over this step and the one before (the
-  contact happens inside the step; projection has separated them by its end);
+  contact happens inside the step; projection has separated them by its end), and how
+  fast and how high (its underside off the ground) the ball ever went;
 - **pushes**: each time a turning body (on an axle: the merry-go-round) spins up, the gap
   between the nearest character's hand and the nearest of its bars;
 - **hugs**: frames in which a hug holds (its ``hold`` phase) with both of the hugger's
@@ -17,8 +18,8 @@ checks when two things meet (BELIEVABILITY.md, "Touch"):
   two are within arm's reach, of those the share they face each other (each one's
   facing within 60 degrees of the other), and how far the victim got pushed or went
   from where the fight began;
-- **the yard** (a scene fenced round): how far any free node got beyond the fences'
-  box, and which bodies did;
+- **the yard** (a scene fenced round): how far any free node no higher than the fences
+  got beyond their box (through them, or over and down), and which bodies did;
 - **carried things**: the largest link error of a body a character holds, how deep it
   sank into its carrier, and pain the holder felt from what it holds or let go of within
   the last second.
@@ -154,6 +155,8 @@ class InteractionRecorder:
         self.pushes: dict[str, list[_Event]] = {r: [] for r in self.rides}
         self._speed = {b: 0.0 for b in self.balls}
         self._leg_gap = {b: math.inf for b in self.balls}
+        self._fastest = {b: 0.0 for b in self.balls}  # m/s
+        self._highest = {b: 0.0 for b in self.balls}  # m of its underside above the ground
         self._spin = {r: 0.0 for r in self.rides}
         self._hand_gap = {r: math.inf for r in self.rides}
         self.hugs: dict[tuple[str, str], _Hug] = {}
@@ -163,6 +166,7 @@ class InteractionRecorder:
         self._held_before: dict[str, set[str]] = {}
         self.hug_pain_events = 0
         self.yard = yard_of(scene)
+        self.fence_top = _fence_top(scene) if self.yard is not None else math.inf
         self.outside = 0.0
         self.escaped: set[str] = set()
         self.moments: list[Moment] = []
@@ -196,6 +200,8 @@ class InteractionRecorder:
         dt = scene.dt
         for name, row in self.balls.items():
             speed = float(np.linalg.norm(pos[row] - prev[row])) / dt
+            self._fastest[name] = max(self._fastest[name], speed)
+            self._highest[name] = max(self._highest[name], float(pos[row, 1] - st.nodes.radius[row]))
             gap_now, by = self._nearest_leg(chars, row)
             gap = min(gap_now, self._leg_gap[name])
             if speed - self._speed[name] > SPEED_UP:
@@ -225,13 +231,16 @@ class InteractionRecorder:
             self._measure_yard()
 
     def _measure_yard(self) -> None:
-        """How far beyond the fenced box any free node is (m), and whose it is."""
+        """How far beyond the fenced box any free node no higher than the fence is (m), and
+        whose it is (a hand reaching over the top is not out: a 1.35 m child's hand at 1.09 m
+        swung 2.4 cm over a 1.05 m fence as it kicked a ball lying by it)."""
         st = self.scene.state
         n = st.nodes.count
         lo, hi = self.yard
         xz = st.nodes.pos[:n][:, [0, 2]]
         beyond = np.maximum(np.maximum(lo - xz, xz - hi), 0.0).max(axis=1)
         beyond[(st.nodes.flags[:n] & NODE_LOCKED) != 0] = 0.0
+        beyond[st.nodes.pos[:n, 1] > self.fence_top] = 0.0
         worst = float(beyond.max()) if n else 0.0
         if worst > 0.0:
             self.outside = max(self.outside, worst)
@@ -456,6 +465,8 @@ class InteractionRecorder:
                 "touched_fraction": round(sum(g <= TOUCH_GAP for g in gaps) / len(gaps), 3) if gaps else None,
                 "median_gap_m": round(float(np.median(gaps)), 3) if gaps else None,
                 "gaps_m": [round(g, 3) for g in gaps[:200]],
+                "max_speed_m_s": round(self._fastest[name], 2),
+                "max_height_m": round(self._highest[name], 2),
             }
         for name, events in self.pushes.items():
             gaps = [e.gap for e in events]
@@ -501,3 +512,15 @@ class InteractionRecorder:
             for name, c in self.carried.items()
         }
         return out
+
+
+def _fence_top(scene) -> float:
+    """Height (m) of the lowest top among the yard's static bodies wider than 2 m (the fences
+    :func:`~twig_ecs.systems.behaviours.play.yard_of` boxes)."""
+    st = scene.state
+    n = st.nodes.count
+    body, flags, pos = st.nodes.body[:n], st.nodes.flags[:n], st.nodes.pos[:n]
+    free = np.bincount(body, (flags & NODE_LOCKED) == 0, st.bodies.count)
+    tops = [float(pos[body == b][:, 1].max()) for b in np.flatnonzero(free == 0)
+            if np.ptp(pos[body == b][:, [0, 2]], axis=0).max() > 2.0]  # fmt: skip
+    return min(tops) if tops else math.inf

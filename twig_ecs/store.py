@@ -25,6 +25,7 @@ NODE_MOVING = 16  # on a ballistic move: kinematic (constraints do not push it) 
 NODE_KICK = 32  # the move is a kick's swing: it drives on through a loose ball it meets (collide)
 NODE_CARRIED = 64  # of a loose thing a hand holds: no foot plants on it (collide, gait)
 NODE_ON_CARRIED = 128  # rested on a carried thing during the last step (a foot does not plant there)
+NODE_PINNED = 256  # a loose ball pressed on a fixed body this step: no kick drives through it (collide)
 
 # Link flags (bit masks in PhysicsState.link_flags).
 LINK_VISIBLE = 1  # drawn by the renderer

@@ -12,6 +12,8 @@ slows as it comes up and kicks with the foot on the line through the toy: a back
 follow-through, each a ballistic arc (:func:`twig_ecs.systems.behaviours.kick.launch_kick`),
 the other foot planted beside and a little behind the toy. The toy moves only because the
 leg's capsules hit it; a kick that misses leaves it lying, and the child lines up again.
+Children playing with one toy take turns (the last to kick holds back while another goes
+for it) and pass (a child not tied to a caregiver sends it to a playmate going for it).
 """
 
 from __future__ import annotations
@@ -57,6 +59,7 @@ class Kicking:
     aim: np.ndarray | None = None  # unit ground vector the kick under way sends the toy along
     contact: np.ndarray | None = None  # where the swinging foot's arc ends, through the toy
     onward: bool = False  # ``aim_at`` is straight on from the side the child came from (one kick)
+    passing: bool = False  # ``aim_at`` is a pass to a playmate
 
 
 @dataclass(slots=True)
@@ -116,6 +119,11 @@ TURN_STEP = 0.06  # m/s (at 1.75 m tall): the walk that turns the body to the ai
 NEAR_HOME = 3.0  # m beyond its safe distance from its caregiver that an attached child kicks the toy to
 ONWARD = 4.0  # m beyond the toy that an attached child kicking it on from its own side aims
 OPEN_FIELD = 6.0  # m: with no fence, the radius round the toy's start that kicks aim within
+PASS_RANGE = 9.0  # m from the toy within which a playmate is passed to
+PASS_SHORT = 1.0  # m short of the playmate that a pass aims: the toy rolls up to it
+TURN_WAIT = 12.0  # s after its kick at most that a child holds back while a playmate goes for the toy
+HOLD_OFF = 0.25  # s an attached child on its kicking spot holds off running home (renewed each step there)
+WAIT_OFF = 2.0  # m (at 1.75 m tall) from the toy that a child waiting its turn keeps
 
 
 def decks_of(scene) -> list[tuple[np.ndarray, float]]:
@@ -190,12 +198,82 @@ class Play(Behavior):
             self.decks = decks_of(self.scene)
         return self.decks
 
+    def _playmates(self, character, toy_name: str) -> list[int]:
+        """The other characters playing with the same toy right now (their entities)."""
+        mates = []
+        for entity, playful in self.world.get_component(Playful):
+            if entity != character.entity and playful.toy == toy_name:
+                mind = self.world.try_component(entity, Mind)
+                if mind is not None and mind.winner == self.name:
+                    mates.append(entity)
+        return mates
+
+    def _waits_its_turn(self, character, playful: Playful, game: Kicking, ball: np.ndarray) -> bool:
+        """Taking turns: a child that kicked the toy last holds back while a playmate goes
+        for it - for TURN_WAIT after its kick at most, WAIT_OFF from the toy, watching it.
+        (Without turns the 1.75 m child, quicker to every ball, kicked it away from under the
+        1.05 m child again and again: schoolyard seed 0's small child came within 1-2.5 m of
+        the ball three times in its first 70 s and never kicked it.)"""
+        if self.scene.time - game.kicked_at > TURN_WAIT:
+            return False
+        mates = self._playmates(character, playful.toy)
+        if not mates:
+            return False
+        for entity in mates:
+            theirs = self.world.try_component(entity, Kicking)
+            if theirs is not None and theirs.kicked_at > game.kicked_at:
+                return False  # a playmate has had its turn since
+        away = character.position - ball
+        away[1] = 0.0
+        gap = float(np.hypot(away[0], away[2]))
+        if 1e-6 < gap < WAIT_OFF * character.scale:
+            character.walk(away / gap * SLOW)  # out of the way of the kick
+        else:
+            character.stop()
+        return True
+
+    def _pass_to(self, kicker, toy_name: str, toy_at: np.ndarray) -> np.ndarray | None:
+        """Where to pass the toy: just short of a playmate going for it (the nearest within
+        PASS_RANGE), if that is onwards from the kicker and clear of the decks; else None.
+        A child tied to a caregiver does not pass: its kicks stay near home."""
+        if self.world.try_component(kicker.entity, Attachment) is not None:
+            return None
+        toward = _flat_unit(toy_at - kicker.position)
+        best, nearest = None, PASS_RANGE
+        for entity in self._playmates(kicker, toy_name):
+            mate = self.scene.character_handle(entity).position
+            gap = ground_distance(mate, toy_at)
+            if gap >= nearest or gap <= PASS_SHORT:
+                continue
+            place = mate + _flat_unit(toy_at - mate) * PASS_SHORT
+            place[1] = 0.0
+            if float(_flat_unit(place - toy_at) @ toward) < AHEAD:
+                continue  # behind the kicker: it would have to walk round the toy
+            if not self._room_behind(toy_at, _flat_unit(place - toy_at), kicker.scale):
+                continue  # by the fence, the kicking spot beyond it: no pass from a corner
+            decks = self._decks()
+            if min(deck_clearance(decks, place, place), deck_clearance(decks, toy_at, place)) < DECK_PATH:
+                continue
+            best, nearest = place, gap
+        return best
+
+    def _room_behind(self, toy_at: np.ndarray, aim: np.ndarray, scale: float) -> bool:
+        """Whether the spot a kick along ``aim`` is made from lies inside the yard (no yard: yes)."""
+        if self.yard is False:
+            self.yard = yard_of(self.scene)
+        if not self.yard:
+            return True
+        lo, hi = self.yard
+        spot = (toy_at - aim * BEHIND * scale)[[0, 2]]
+        return bool(np.all(spot >= lo + FENCE_ROOM * scale) and np.all(spot <= hi - FENCE_ROOM * scale))
+
     def _target(self, toy_name: str, toy_at: np.ndarray, kicker) -> np.ndarray:
         """A new place to send the toy: inside the yard, or near where the toy started;
         away from any turning deck, and not across one; and onwards from where the kicker
         stands (within 60 degrees of the way from it to the toy, so it kicks from its own
         side instead of walking round the toy). Of a few draws, the first that does both,
-        else the best: the clearest of the decks, then the most onwards."""
+        else the best: the clearest of the decks, then the most onwards. (A playmate going
+        for the toy gets it passed instead: :meth:`_pass_to`.)"""
         decks = self._decks()
         toward = _flat_unit(toy_at - kicker.position)
         best, score = None, (-np.inf, -np.inf)
@@ -258,12 +336,20 @@ class Play(Behavior):
         game = self.world.try_component(character.entity, Kicking)
         stale = game is not None and now - max(game.chosen_at, game.kick_ends) > RETHINK
         if game is None or stale or ground_distance(ball, game.aim_at) < ARRIVED:
-            game = Kicking(self._target(playful.toy, ball, character), chosen_at=now)
+            # (a new place to send the toy; when it last kicked is kept, for taking turns)
+            kicked = game.kicked_at if game is not None else -1e9  # (never)
+            game = Kicking(self._target(playful.toy, ball, character), chosen_at=now, kicked_at=kicked)
             self.world.add_component(character.entity, game)
         elif game.onward and game.counted and not game.phase and game.kicked_at >= game.chosen_at:
             # kicked on from its own side: the next kick aims near home again (the game
             # itself kept: the kicking foot may still be coming down)
             game.aim_at, game.chosen_at, game.onward = self._target(playful.toy, ball, character), now, False
+        if not game.passing and not game.phase and now >= game.kick_ends + SETTLE:
+            # a playmate going for the toy (now, or since the child chose where to send it)
+            # gets it passed; the pass stands until the toy gets there or goes stale
+            passed = self._pass_to(character, playful.toy, ball)
+            if passed is not None:
+                game.aim_at, game.chosen_at, game.onward, game.passing = passed, now, False, True
         speed = float(np.linalg.norm(toy.velocity))
         if not game.counted and now >= game.kick_ends:
             game.counted = True
@@ -271,6 +357,7 @@ class Play(Behavior):
                 playful.touches += 1
         character.look_at(playful.toy)
         if game.phase:
+            self._hold_off_home(character, now)
             self._kick_on(character, game)
             return
         landing = game.foot and now < game.kick_ends + LAND_WAIT and not character.is_locked(game.foot)
@@ -278,6 +365,8 @@ class Play(Behavior):
             # the kick is in flight: stand on the other foot until the kicking one is down
             # (running after the toy with it still up splits the legs)
             character.stop()
+            return
+        if self._waits_its_turn(character, playful, game, ball):
             return
         aim = self._from_its_side(character, game, ball, _flat_unit(game.aim_at - ball))
         left = np.array([aim[2], 0.0, -aim[0]])  # the body's left when facing along the aim
@@ -298,12 +387,29 @@ class Play(Behavior):
                 if np.hypot(along[0], along[2]) < 1e-6:
                     along = np.array([aim[2], 0.0, -aim[0]]) * (inside == spot[[0, 2]])[[0, 0, 1]]
                 aim = _flat_unit(along)
+                if float((ball - character.position) @ aim) < 0.0:
+                    # along the fence from the child's own side: the way round the toy to
+                    # its far side runs by the boards, and the steering held a child off it
+                    # (seed 1's big child stepped to and fro 1 m off a ball by the fence for
+                    # most of five minutes once a foot no longer squeezed it out of the corner)
+                    aim = -aim
                 left = np.array([aim[2], 0.0, -aim[0]])
                 spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
                 inside = np.clip(spot[[0, 2]], lo + FENCE_ROOM * scale, hi - FENCE_ROOM * scale)
                 if np.any(inside != spot[[0, 2]]):
                     spot[[0, 2]] = inside
                     aim = _flat_unit(ball - spot)
+                    if float((character.position - ball) @ aim) >= -0.1 * scale:
+                        # pinned in a corner, the child on its open side: the spot wedged
+                        # in the corner is out of its reach (schoolyard seed 0's big child
+                        # stood by a cornered ball for 160 s), so it kicks the toy from
+                        # where it stands, into the corner, and it comes back off the boards
+                        aim = _flat_unit(ball - character.position)
+                        spot = ball - aim * BEHIND * scale
+                        # ... and keeps that aim until the kick (recomputed from where it
+                        # stands each step, the aim swung as it moved, and seed 1's big child
+                        # stepped to and fro 0.9 m off a ball by the fence for 10 s at a time)
+                        game.aim_at, game.chosen_at, game.onward = ball + aim * ONWARD, now, True
                     left = np.array([aim[2], 0.0, -aim[0]])
         spot, aim, left = self._off_the_decks(spot, ball, aim, left, scale)
         here = character.position
@@ -322,6 +428,7 @@ class Play(Behavior):
                 if on_line and speed <= ROLLING:
                     # on the kicking line behind the spot: the last steps straight along it
                     # (facing the aim when it gets there), slowing as it comes up
+                    self._hold_off_home(character, now)
                     if far <= LINE_UP * scale:
                         # on the spot, a foot still in the air: the way to the spot is noise
                         # there, and the body turns to the way it walks (a 1.2 m child turned
@@ -356,7 +463,15 @@ class Play(Behavior):
                 walk *= least / pace  # (at the goal itself it would circle it)
             character.walk(walk)
             return
+        self._hold_off_home(character, now)
         self._kick(character, foot, ball, aim, game, speed)
+
+    def _hold_off_home(self, character, now: float) -> None:
+        """On the kicking line's last steps, on the spot or kicking: an attached child finishes
+        the kick before it runs home (see :data:`~twig_ecs.systems.behaviours.attachment.FINISH_MARGIN`)."""
+        attachment = self.world.try_component(character.entity, Attachment)
+        if attachment is not None:
+            attachment.finishing_until = now + HOLD_OFF
 
     def _from_its_side(self, character, game: Kicking, ball: np.ndarray, aim: np.ndarray) -> np.ndarray:
         """The aim of an attached child's next kick: ``aim`` - unless the child is on the

@@ -27,6 +27,7 @@ from twig_ecs.store import (
     NODE_LOCKED,
     NODE_MOVING,
     NODE_ON_CARRIED,
+    NODE_PINNED,
     NODE_SPHERE,
     columns,
 )
@@ -73,6 +74,13 @@ SETTLE_ROUNDS = 4
 #: seen through the lever s, 1 - s) must be at least this share of the nodes' own - a lever of
 #: 0.1 - else the free end would be swung depth / lever per pass.
 MIN_LEVER = 0.0025
+#: Share of its closing speed a loose ball keeps, back out, when it meets a fixed body (a
+#: fence, a post, the bench): a playground ball off boards. Other contacts end the closing
+#: motion (Verlet projection); so did this one, and a kicked ball lay where it hit the fence.
+BALL_BOUNCE = 0.5
+#: m/s: a ball meeting a fixed body slower than this does not bounce (a ball at rest against
+#: a fence, or rolled up to it, stays there instead of trembling)
+BOUNCE_FROM = 0.5
 #: Broad-phase grid cell edge (m), for the boxes of whole bodies: about a body's width
 #: and a half, so a standing body sits in a few cells and a lying one in a row of them.
 CELL_SIZE = 1.0
@@ -501,8 +509,15 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         # child's foot sharing it with a 0.4 kg ball sent it off at under half the foot's speed)
         ball_i = a == b and (flags[a] & NODE_SPHERE) != 0 and (flags[a] & NODE_LOCKED) == 0
         ball_j = c == d and (flags[c] & NODE_SPHERE) != 0 and (flags[c] & NODE_LOCKED) == 0
-        kick_i = ball_j and ((flags[a] | flags[b]) & NODE_KICK) != 0
-        kick_j = ball_i and ((flags[c] | flags[d]) & NODE_KICK) != 0
+        # ... unless the ball is pressed against something fixed (a fence corner, a bench): a foot
+        # driving on through it there squeezed it out upwards, the foot's whole push turned into
+        # the one way left open (seed 0's ball left a fence corner at 14 m/s and rose 7 m)
+        kick_i = ball_j and ((flags[a] | flags[b]) & NODE_KICK) != 0 and (flags[c] & NODE_PINNED) == 0
+        kick_j = ball_i and ((flags[c] | flags[d]) & NODE_KICK) != 0 and (flags[a] & NODE_PINNED) == 0
+        if ball_i and (flags[c] & flags[d] & NODE_LOCKED) != 0:
+            flags[a] |= NODE_PINNED
+        if ball_j and (flags[a] & flags[b] & NODE_LOCKED) != 0:
+            flags[c] |= NODE_PINNED
         if kick_i:
             wa = 0.0 if flags[a] & NODE_KICK else wa
             wb = 0.0 if flags[b] & NODE_KICK else wb
@@ -566,6 +581,14 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
                 if energy > hit_energy[struck]:
                     hit_energy[struck] = energy
                     hit_by[struck] = striker
+                if closing > BOUNCE_FROM:
+                    # a loose ball off a fixed body: its next step starts with part of the
+                    # closing speed turned back along the normal (the pass moves it out of the
+                    # body, which ends the closing part; its old position moved back gives the rest)
+                    if ball_i and (flags[c] & flags[d] & NODE_LOCKED) != 0:
+                        nudge(prev, a, -BALL_BOUNCE * closing * dt, nx, ny, nz)
+                    elif ball_j and (flags[a] & flags[b] & NODE_LOCKED) != 0:
+                        nudge(prev, c, BALL_BOUNCE * closing * dt, nx, ny, nz)
         # resolve at most half the thinner radius per pass: a limb found deep inside
         # another (fast motion, crossed segments with an unreliable normal) is eased
         # out over a few passes instead of being flung out in one

@@ -21,6 +21,7 @@ from twig_ecs.store import (
     NODE_LOCKED,
     NODE_MOVING,
     NODE_ON_CARRIED,
+    NODE_PINNED,
     columns,
 )
 from twig_ecs.system import System
@@ -108,7 +109,7 @@ def integrate_nodes(args, count, gravity, dt, max_speed):
             prev[i, k] = pos[i, k]
             pos[i, k] = new
             acc[i, k] = 0.0
-        flags[i] = f & ~np.uint32(NODE_IN_CONTACT | NODE_ON_CARRIED)
+        flags[i] = f & ~np.uint32(NODE_IN_CONTACT | NODE_ON_CARRIED | NODE_PINNED)
 # fmt: on
 
 
