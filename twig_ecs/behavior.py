@@ -13,6 +13,7 @@ end is reported as a ``goal.done`` or ``goal.failed`` event (and to a callback).
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -37,6 +38,8 @@ from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from twig_ecs.character import CharacterHandle
     from twig_ecs.step import StepContext
 
@@ -65,6 +68,10 @@ class Behavior(System):
     component: ClassVar[type | None] = None
     #: A reflex (pain withdrawal) runs even for a scripted, non-autonomous character.
     reflex: ClassVar[bool] = False
+
+    #: Proposals made with :meth:`propose_all` go to select_behavior as lists, which it
+    #: selects over arrays (False: into each mind's dict, the per-character form).
+    propose_over_arrays: ClassVar[bool] = True
 
     #: A batch behaviour acts for all the characters it wins in one call,
     #: :meth:`act_batch`, over arrays (crowds); others act per character.
@@ -111,10 +118,9 @@ class Behavior(System):
         name = self.name
         if self.goal_driven and type(self).activation is Behavior.activation:
             # the default: a fixed activation while its goal is current, no handle needed
-            for _, mind in self.candidates():
-                goals = mind.goals
-                if goals and goals[0].behavior == name:
-                    mind.activations[name] = GOAL_ACTIVATION
+            holders = [(e, m) for e, m in self.candidates() if m.goals and m.goals[0].behavior == name]
+            if holders:
+                self.propose_all(ctx.frame, [e for e, _ in holders], [m for _, m in holders], GOAL_ACTIVATION)
             return
         if type(self).propose_crowd is not Behavior.propose_crowd:
             self._propose_over_arrays(ctx)
@@ -123,6 +129,19 @@ class Behavior(System):
             value = self.activation(scene.character_handle(entity), mind, goal)
             if value > 0.0:
                 mind.activations[name] = value
+
+    def propose_all(self, frame: int, entities: Sequence[int], minds: Sequence[Mind], value: float) -> None:
+        """Propose ``value`` for every one of ``entities`` (``minds``: their minds) this step
+        (``frame``), as ``mind.activations[self.name] = value`` does for one: a list that
+        select_behavior takes in one piece and selects over arrays."""
+        if not Behavior.propose_over_arrays:
+            for mind in minds:
+                mind.activations[self.name] = value
+            return
+        made = self.scratch.get("proposed")
+        if made is None or made[0] != frame:
+            made = self.scratch["proposed"] = (frame, [])
+        made[1].append((next(_PROPOSAL_ORDER), self.name, entities, minds, float(value)))
 
     def _proposers(self):
         """(entity, mind, goal) of each character this behaviour may propose for now: a
@@ -206,6 +225,10 @@ class Behavior(System):
         """End ``goal`` (done or failed) and report it."""
         character.scene.end_goal(character, goal, ok, reason)
 
+
+#: The order proposals are made in, across behaviours: a character's proposals are compared
+#: in it (the first of equal ones wins, as in a mind's dict).
+_PROPOSAL_ORDER = itertools.count()
 
 #: Behaviour kinds by name: the systems that implement them (filled by register()).
 REGISTRY: dict[str, type[Behavior]] = {}

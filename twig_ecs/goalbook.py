@@ -48,6 +48,12 @@ class GoalBook:
         self._holders.pop(entity, None)
         self._changes += 1
 
+    @property
+    def changes(self) -> int:
+        """How many times a goal was given or ended, or a holder went: a key for what is
+        made from the goals (a batch's goals, kept while it is unchanged)."""
+        return self._changes
+
     def holders(self) -> list[tuple[int, Mind]]:
         """(entity, mind) of the characters holding goals, in the order they were given them."""
         holders = self._holders

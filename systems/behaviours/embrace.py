@@ -242,10 +242,10 @@ class Embrace(Behavior):
         mine, theirs = pos[nodes[hugged, PELVIS]], pos[nodes[huggers, PELVIS]]
         far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])
         near = np.where([phase in ("wrap", "hold") for phase in phases], NEAR, TURN_NEAR)
-        for k in np.flatnonzero(far < near).tolist():
-            mind = pairs[k][1]
-            if mind.autonomous:  # a scripted character does only what it is told
-                mind.activations[self.name] = EMBRACE
+        # (a scripted character does only what it is told)
+        close = [pairs[k] for k in np.flatnonzero(far < near).tolist() if pairs[k][1].autonomous]
+        if close:
+            self.propose_all(ctx.frame, [pair[0] for pair in close], [pair[1] for pair in close], EMBRACE)
 
     def _rows(self) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
         """The pairs' hugged and hugger character rows, and each hugged entity's pair (made

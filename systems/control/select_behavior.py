@@ -1,14 +1,25 @@
 """select_behavior: each character's highest activation wins and acts (SPEC 4).
 
 Reads the activations the behaviour systems proposed this step (on each character's
-:class:`~twig_ecs.mind.Mind`); writes the winner and calls its ``act``, which sets
-the character's controller targets. Switching is stable: the current winner gets a
-bonus (``STICKINESS``) and keeps the floor for at least ``MIN_DWELL`` seconds unless
-a rival beats it by ``URGENT`` (a reflex such as pain withdrawal), so two behaviours
-with near-equal activations cannot trade places every frame.
+:class:`~twig_ecs.mind.Mind`, and the lists of :meth:`~twig_ecs.behavior.Behavior.propose_all`);
+writes the winner and calls its ``act``, which sets the character's controller targets.
+Switching is stable: the current winner gets a bonus (``STICKINESS``) and keeps the floor for
+at least ``MIN_DWELL`` seconds unless a rival beats it by ``URGENT`` (a reflex such as pain
+withdrawal), so two behaviours with near-equal activations cannot trade places every frame.
+
+Selection over arrays: the proposals made as lists (a goal behaviour's fixed activation,
+the embrace's) are columns of one table, a row per character, and every character's winner
+and its hysteresis are found in one numpy pass (:func:`choose`). A character whose winner
+carries on over a batch behaviour is only added to its batch; the others - a proposal in
+its mind's dict (a per-character ``activation``), a switch, a goal starting, a winner that
+acts per character - go through the per-character loop, in entity order, as before.
 """
 
 from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
 
 from twig_ecs.components import Character
 from twig_ecs.mind import BehaviorChanged, Mind
@@ -21,6 +32,61 @@ URGENT = 0.3  # a rival this much stronger takes over at once
 IDLE = 0.1  # activation of doing nothing in particular
 
 
+def choose(values: np.ndarray, codes: np.ndarray, was: np.ndarray, since: np.ndarray,
+           now: float) -> np.ndarray:  # fmt: skip
+    """Every character's winner, as the per-character loop picks it.
+
+    ``values`` (characters x proposals): activations, ``-inf`` where a character has no such
+    proposal; the last column is idle's (``IDLE`` for all). ``codes``: each column's behaviour
+    code (no code twice); ``was``, ``since``: each character's winner code and the time it
+    won. The highest proposal wins (the first column of equal ones: a dict's order, in which
+    the behaviours proposed); the current winner, where it proposed, keeps the floor unless
+    beaten by more than ``STICKINESS``, or by ``URGENT`` within ``MIN_DWELL`` of winning.
+    Returns the winners' codes.
+    """
+    best_col = values.argmax(axis=1)
+    best = codes[best_col]
+    rivals = np.flatnonzero(best != was)
+    if len(rivals) == 0:  # every winner carries on (a crowd's usual step)
+        return best
+    values, best_col, was, since = values[rivals], best_col[rivals], was[rivals], since[rivals]
+    was_cols = (codes[None, :] == was[:, None]) & (values != -np.inf)
+    was_col = was_cols.argmax(axis=1)
+    at = np.arange(len(rivals))
+    # the same float arithmetic as the loop: best - (was + STICKINESS), now - since
+    margin = values[at, best_col] - (values[at, was_col] + STICKINESS)
+    held = (now - since) < MIN_DWELL
+    keep = was_cols[at, was_col] & ((margin <= 0.0) | (held & (margin < URGENT)))
+    best[rivals[keep]] = was[keep]
+    return best
+
+
+class _Minds:
+    """The characters in selection order (the (Character, Mind) query's), with each one's
+    winner as a code and the time it won: what :func:`choose` reads, kept between steps
+    (select_behavior is the only writer of a mind's winner)."""
+
+    def __init__(self, items: list, state) -> None:
+        self.items = items
+        self.state_key = (id(state), state.version)
+        self.entities = [entity for entity, _ in items]
+        self.minds = [mind for _, (_, mind) in items]
+        self.rows = np.array([character.index for _, (character, _) in items], dtype=np.int64)
+        self.position = {entity: k for k, entity in enumerate(self.entities)}
+        self.names: list[str] = []
+        self.codes: dict[str, int] = {}
+        self.winner = np.array([self.code(mind.winner) for mind in self.minds], dtype=np.int64)
+        self.since = np.array([mind.since for mind in self.minds], dtype=np.float64)
+
+    def code(self, name: str) -> int:
+        """A behaviour name's code (new names get the next one)."""
+        found = self.codes.get(name)
+        if found is None:
+            found = self.codes[name] = len(self.names)
+            self.names.append(name)
+        return found
+
+
 class SelectBehaviorSystem(System):
     """Picks each character's winning behaviour and lets it act."""
 
@@ -28,13 +94,185 @@ class SelectBehaviorSystem(System):
 
     def run(self, ctx: StepContext) -> None:
         """Select, switch (with hysteresis) and act, for every character."""
-        dt = ctx.dt
+        items = ctx.world.get_components(Character, Mind)
+        listed = self._listed(ctx.frame)
+        batches: dict[str, list] = {}
+        if not listed:
+            self._select_each([(e, c, m, m.activations) for e, (c, m) in items], ctx.dt, batches)
+        else:
+            self._select_over_arrays(items, listed, ctx, batches)
+        # batch behaviours act once for all the characters they won, after the others
+        behaviors = self.scene.behaviors
+        for name, (rows, entities, goals) in batches.items():
+            behavior = behaviors[name]
+            if behavior.goal_driven:  # each one's goal too (None where it has none)
+                behavior.act_batch(rows, entities, dt=ctx.dt, goals=goals)
+            else:
+                behavior.act_batch(rows, entities, ctx.dt)
+
+    def _listed(self, frame: int) -> list[tuple[Any, ...]]:
+        """This step's proposals made as lists (:meth:`~twig_ecs.behavior.Behavior.propose_all`),
+        taken from the behaviours, in the order they were made: (order, name, entities, minds, value)."""
+        listed = []
+        for behavior in self.scene.behaviors.values():
+            made = behavior.scratch.pop("proposed", None)
+            if made is not None and made[0] == frame:
+                listed.extend(made[1])
+        listed.sort(key=lambda call: call[0])
+        return listed
+
+    def _table(self, items: list) -> _Minds:
+        state = self.scene.state
+        table = self.scratch.get("minds")
+        if table is None or table.items is not items or table.state_key != (id(state), state.version):
+            table = self.scratch["minds"] = _Minds(items, state)
+        return table
+
+    def _select_over_arrays(self, items: list, listed: list, ctx: StepContext, batches: dict) -> None:
+        """:meth:`_select_each`, the winners found by :func:`choose` over the listed proposals;
+        only the characters with something to do beyond joining their winner's batch go
+        through the per-character loop."""
+        table = self._table(items)
+        minds = table.minds
+        n = len(minds)
+        names = [call[1] for call in listed]
+        if len(set(names)) < len(names) or "idle" in names or len(table.names) + len(names) > 62:
+            # a behaviour that proposed twice (its later value counts, in its first place), or
+            # too many names for a set of bits: into the minds' dicts, for the loop
+            for _, name, _, pending, value in listed:
+                for mind in pending:
+                    mind.activations[name] = value
+            self._select_each([(e, c, m, m.activations) for e, (c, m) in items], ctx.dt, batches)
+            self._forget_winners(table)
+            self.scratch.pop("carried", None)
+            return
+        values = np.full((n, len(listed) + 1), -np.inf)
+        values[:, -1] = IDLE
+        codes = np.array([table.code(name) for name in names] + [table.code("idle")], dtype=np.int64)
+        for col, (_, name, entities, pending, value) in enumerate(listed):
+            values[self._positions(table, name, entities, pending, value), col] = value
+        best = choose(values, codes, table.winner, table.since, ctx.time)
+        # who goes per character: a proposal in its dict, a switch, or a winner that acts alone
+        behaviors = self.scene.behaviors
+        batch_code = np.array([name not in behaviors or behaviors[name].batch for name in table.names])
+        alone = (best != table.winner) | ~batch_code[best]
+        alone[[k for k, mind in enumerate(minds) if mind.activations]] = True
+        present = values[:, :-1] != -np.inf
+        # which listed proposals each made, as bits of their behaviours' codes: its `last`
+        keys = present @ (np.int64(1) << codes[:-1])
+        proposed = dict(zip(names, [call[4] for call in listed], strict=True))
+        # batch name -> the positions, rows, entities and goals of those only joining it
+        joined: dict[str, tuple] = {}
+        goals_changed = self.scene.goals.changes
+        carry = ~alone
+        for code in np.flatnonzero(np.bincount(best[carry], minlength=len(table.names))).tolist():
+            name = table.names[code]
+            at = np.flatnonzero(carry & (best == code))
+            if name not in behaviors:  # no behaviour to act (idle): nothing to join
+                continue
+            members = self._members(table, name, at, goals_changed)
+            if members is None:  # a goal starts among them: the loop marks it
+                alone[at] = True
+                continue
+            joined[name] = members
+        # the minds carrying on get this step's proposals as `last`: one dict per set of
+        # proposals, given only to those whose set differs from their last step's (an equal
+        # dict is there already)
+        carry = ~alone
+        before = self.scratch.get("carried")
+        fresh = carry.copy()
+        if before is not None and before[0] is table and before[1] == proposed:
+            fresh &= ~before[2] | (keys != before[3])
+        for key in np.unique(keys[fresh]).tolist() if fresh.any() else ():
+            at = np.flatnonzero(fresh & (keys == key))
+            last = {name: proposed[name] for name, bit in zip(names, codes[:-1].tolist(), strict=True)
+                    if key >> bit & 1}  # fmt: skip
+            last["idle"] = IDLE
+            for k in at.tolist():
+                minds[k].last = last
+        self.scratch["carried"] = (table, proposed, carry, keys)
+        each = []  # (entity, character, mind, proposals) for the loop, in entity order
+        for k in np.flatnonzero(alone).tolist():
+            entity, (character, mind) = items[k]
+            each.append((entity, character, mind, self._proposals(mind, listed, present[k], values[k])))
+        self._select_each(each, ctx.dt, batches, joined, table.position)
+        self._forget_winners(table, each)
+
+    def _positions(self, table: _Minds, name: str, entities: list, minds: list, value: float) -> np.ndarray:
+        """The selection positions of the characters a listed proposal is for; a mind that is
+        no character's is never selected: its proposal goes into its dict (as it did)."""
+        kept = self.scratch.get(("at", name))
+        if kept is not None and kept[0] is table and kept[1] == entities:
+            return kept[2]
+        try:
+            at = np.fromiter(map(table.position.__getitem__, entities), np.int64, len(entities))
+            self.scratch[("at", name)] = (table, list(entities), at)
+            return at
+        except KeyError:
+            position = table.position
+            for entity, mind in zip(entities, minds, strict=True):
+                if entity not in position:
+                    mind.activations[name] = value
+            return np.array([position[e] for e in entities if e in position], dtype=np.int64)
+
+    def _members(self, table: _Minds, name: str, at: np.ndarray, goals_changed: int) -> tuple | None:
+        """The positions, rows, entities and own goals of the characters at positions ``at``
+        carrying on with batch behaviour ``name``; None when one's goal is pending (it starts
+        now). Kept while the same characters carry on and no goal was given or ended."""
+        kept = self.scratch.get(("members", name))
+        if kept is not None and kept[0] is table and kept[1] == goals_changed and np.array_equal(kept[2], at):
+            return kept[3]
+        minds, entities, rows = table.minds, table.entities, table.rows
+        goals = []
+        for k in at.tolist():
+            held = minds[k].goals
+            goal = held[0] if held and held[0].behavior == name else None
+            if goal is not None and goal.status == "pending":
+                return None
+            goals.append(goal)
+        members = (at.tolist(), rows[at].tolist(), [entities[k] for k in at.tolist()], goals)
+        self.scratch[("members", name)] = (table, goals_changed, at, members)
+        return members
+
+    def _proposals(self, mind: Mind, listed: list, present: np.ndarray, values: np.ndarray) -> dict:
+        """One character's proposals as a dict, the listed ones and its mind's, in the order
+        the behaviours proposed (the schedule's: a behaviour proposes under its own name)."""
+        proposals = {listed[c][1]: float(values[c]) for c in np.flatnonzero(present)}
+        if mind.activations:
+            systems = self.scene.schedule.systems
+            ranks = self.scratch.keyed("ranks", self.scene.frame,
+                                       lambda: {s.name: k for k, s in enumerate(systems())})  # fmt: skip
+            order = {name: ranks.get(name, len(ranks)) for name in proposals}
+            for name, value in mind.activations.items():
+                if name not in order:
+                    order[name] = ranks.get(name, len(ranks))
+                proposals[name] = value
+            proposals = dict(sorted(proposals.items(), key=lambda item: order[item[0]]))
+        return proposals
+
+    def _forget_winners(self, table: _Minds, each: list | None = None) -> None:
+        """Read the winners the loop wrote back into the table (all of them, or those in ``each``)."""
+        if each is None:
+            table.winner[:] = [table.code(mind.winner) for mind in table.minds]
+            table.since[:] = [mind.since for mind in table.minds]
+            return
+        position = table.position
+        for entity, _, mind, _ in each:
+            k = position[entity]
+            table.winner[k], table.since[k] = table.code(mind.winner), mind.since
+
+    def _select_each(self, each: list, dt: float, batches: dict, joined: dict | None = None,
+                     position: dict | None = None) -> None:  # fmt: skip
+        """The per-character selection: for each (entity, character, mind, proposals) in entity
+        order, the winner with hysteresis, the switch (stop, start, event), the goal started,
+        and the act (or a place in its batch). ``joined``: the characters that only join a
+        batch (by position in ``position``'s order), merged into the batches in that order."""
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
-        batches: dict[str, tuple[list[int], list[int], list]] = {}
-        for entity, (character, mind) in ctx.world.get_components(Character, Mind):
-            proposals = mind.activations
+        members: dict[str, tuple] = {}
+        added: dict[str, list] = {}  # batch name -> (position, row, entity, goal) the loop adds to `joined`
+        for entity, character, mind, proposals in each:
             was = mind.winner
             if len(proposals) == 1 and proposals.get(was, -1.0) >= IDLE:
                 # the one proposal is the winner's, above idle: it carries on (a crowd's usual step)
@@ -62,9 +300,13 @@ class SelectBehaviorSystem(System):
                 new = behaviors.get(best)
                 if new is not None:
                     new.start(handle, goal if goal is not None and goal.behavior == best else None)
-            # this step's proposals become `last`; last step's dict is reused for the next
-            mind.last, mind.activations = proposals, mind.last
-            mind.activations.clear()
+            # this step's proposals become `last`; the next step's go into a fresh dict (a
+            # `last` may be shared by the minds that carried on over arrays)
+            if proposals is mind.activations:
+                mind.last, mind.activations = proposals, {}
+            else:
+                mind.last = proposals
+                mind.activations.clear()
             winner = behaviors.get(best)
             if winner is None:
                 continue
@@ -72,18 +314,25 @@ class SelectBehaviorSystem(System):
             if own_goal is not None and own_goal.status == "pending":
                 own_goal.status, own_goal.started = "active", now
             if winner.batch:
-                batch = batches.get(best)
-                if batch is None:
-                    batch = batches[best] = ([], [], [])
-                batch[0].append(character.index)
-                batch[1].append(entity)
-                batch[2].append(own_goal)
+                if joined is None:
+                    batch = members.get(best)
+                    if batch is None:
+                        batch = members[best] = ([], [], [])
+                    batch[0].append(character.index)
+                    batch[1].append(entity)
+                    batch[2].append(own_goal)
+                else:
+                    added.setdefault(best, []).append((position[entity], character.index, entity, own_goal))
                 continue
             winner.act(handle or scene.character_handle(entity), mind, own_goal, dt)
-        # batch behaviours act once for all the characters they won, after the others
-        for name, (rows, entities, goals) in batches.items():
-            behavior = behaviors[name]
-            if behavior.goal_driven:  # each one's goal too (None where it has none)
-                behavior.act_batch(rows, entities, dt, goals=goals)
-            else:
-                behavior.act_batch(rows, entities, dt)
+        if joined is None:
+            batches.update(members)
+            return
+        # the batches in the order of their first member, each in entity order (the loop's)
+        for name, rows in added.items():
+            if name in joined:
+                rows += zip(*joined[name], strict=True)
+                rows.sort(key=lambda row: row[0])
+            joined[name] = tuple(list(column) for column in zip(*rows, strict=True))
+        for name, (_, rows, entities, goals) in sorted(joined.items(), key=lambda item: item[1][0][0]):
+            batches[name] = (list(rows), list(entities), list(goals))  # (kept lists: act_batch's own copies)

@@ -1,0 +1,147 @@
+"""Selection over arrays (issue 36): ``select_behavior`` picks the winners of the proposals
+made as lists (``Behavior.propose_all``: a goal behaviour's fixed activation, the embrace's)
+in one numpy pass, and gives the same winners, switches, ``last`` proposals, batches and
+trajectories as the per-character loop over each mind's dict."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from twig_ecs import Scene
+from twig_ecs.behavior import Behavior
+from twig_ecs.bench import cases
+from twig_ecs.components import Character
+from twig_ecs.mind import GOAL_ACTIVATION, Mind
+from twig_ecs.systems.behaviours.embrace import EMBRACE
+from twig_ecs.systems.control.select_behavior import IDLE, MIN_DWELL, STICKINESS, URGENT, choose
+
+
+def loop_winner(proposals: dict[str, float], was: str, since: float, now: float) -> str:
+    """The per-character rule, as select_behavior's loop has it."""
+    proposals = dict(proposals)
+    proposals.setdefault("idle", IDLE)
+    best = max(proposals, key=proposals.__getitem__)
+    if best != was and was in proposals:
+        held = now - since < MIN_DWELL
+        margin = proposals[best] - (proposals[was] + STICKINESS)
+        if margin <= 0.0 or (held and margin < URGENT):
+            best = was
+    return best
+
+
+def test_choose_picks_the_winner_the_per_character_rule_picks():
+    """Random proposals with ties, bonuses just over and under STICKINESS and URGENT, winners
+    held and not: every character's winner is the loop's."""
+    rng = np.random.default_rng(7)
+    names = ["a", "b", "c", "idle"]
+    n = 4000
+    levels = np.array([IDLE, 0.5, 0.5 + STICKINESS, 0.5 + 1.01 * STICKINESS, 0.5 + STICKINESS + URGENT, 0.9])
+    values = np.where(rng.random((n, 4)) < 0.5, rng.choice(levels, (n, 4)), -np.inf)
+    values[:, -1] = IDLE
+    was = rng.integers(0, 4, n)
+    since = rng.choice([0.0, 0.9, 1.0 - MIN_DWELL, 0.95], n)
+    now = 1.0
+    got = choose(values, np.arange(4), was, since, now)
+    for k in range(n):
+        proposals = {names[c]: float(values[k, c]) for c in range(3) if values[k, c] != -np.inf}
+        assert names[got[k]] == loop_winner(proposals, names[was[k]], float(since[k]), now), k
+
+
+class Tied(Behavior):
+    """Proposes, per character, ``value`` for the characters named in ``names`` (a tie with
+    another behaviour, which the order they proposed in settles), and acts by standing still."""
+
+    name = "tied"
+    names: tuple[str, ...] = ()
+    value = EMBRACE
+
+    def activation(self, character, mind, goal) -> float:
+        return self.value if character.name in self.names else 0.0
+
+    def act(self, character, mind, goal, dt: float) -> None:
+        character.stop()
+
+
+class TiedEarly(Tied):
+    """:class:`Tied` under another name, scheduled before the embrace (it proposes first)."""
+
+    name = "tied_early"
+
+
+class TiedLate(Tied):
+    """:class:`Tied` under another name."""
+
+    name = "tied_late"
+
+
+def hugging_scene(over_arrays: bool, monkeypatch) -> tuple[Scene, list]:
+    """Twelve characters in pairs: hugs short and long, a scripted partner (it does not embrace),
+    plug-in behaviours proposing per character, tied with the embrace and a hug, proposing
+    before and after them, and a goal given later. Returns the scene and its event log."""
+    monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
+    scene, pairs = cases._grid_of_pairs(12, seed=5)
+    scene.add_system(Tied()).names = ("b1", "a3")  # after the embrace: it loses b1's tie
+    early = scene.add_system(TiedEarly(), before="embrace")
+    early.names = ("b0", "b3", "a1")  # before it: it wins b0's and b3's ties
+    late = scene.add_system(TiedLate())
+    late.names, late.value = ("a2",), GOAL_ACTIVATION  # a tie with a2's hug, which wins
+    for k, (a, b) in enumerate(pairs):
+        if k < 4:
+            a.hug(b.name, duration=0.5 + 0.5 * k)
+    pairs[2][1].autonomous = False
+    walker = pairs[5][0]  # two walks one after the other: the second starts while approach wins
+    x, _, z = walker.position
+    walker.approach((float(x) + 0.6, 0.0, float(z)))
+    walker.approach((float(x) + 0.6, 0.0, float(z) + 0.6))
+    events: list = []
+    for kind in ("behavior.changed", "goal.done", "goal.failed"):
+        scene.on(kind, lambda e, events=events: events.append((scene.frame, e)))
+    return scene, events
+
+
+def minds_of(scene: Scene) -> list:
+    """Each character's winner, since, switches, last proposals (in their order) and its
+    goal's status and start."""
+    return [(e, mind.winner, mind.since, mind.switches, list(mind.last.items()), len(mind.activations),
+             mind.goal and (mind.goal.status, mind.goal.started))
+            for e, (_, mind) in scene.world.get_components(Character, Mind)]  # fmt: skip
+
+
+def test_a_hugging_scene_selects_the_same_over_arrays_as_per_character(scenes, monkeypatch):
+    """Every step: the same winners, switch times, switch counts, `last` proposals in the same
+    order and the same events; and the same trajectory (state hash)."""
+    runs = []
+    for over_arrays in (False, True):
+        scene, events = hugging_scene(over_arrays, monkeypatch)
+        scenes.append(scene)
+        seen = []
+        for step in range(240):
+            if step == 30:  # a goal given mid-run: pending, then active
+                scene.character_handle(scene.entity_id("a4")).hug("b4", duration=0.5)
+            scene.step()
+            seen.append(minds_of(scene))
+        runs.append((seen, events, scene.state_hash()))
+    (loop, loop_events, loop_hash), (arrays, array_events, array_hash) = runs
+    assert any(len(dict(last)) > 2 for step in loop for *_, last, _, _ in step), "some mixed proposals"
+    for step, (a, b) in enumerate(zip(loop, arrays, strict=True)):
+        assert a == b, step
+    assert [(f, repr(e)) for f, e in loop_events] == [(f, repr(e)) for f, e in array_events]
+    assert {e.new for _, e in loop_events if hasattr(e, "new")} >= {"hug", "embrace", "tied", "tied_early",
+                                                                      "step_back"}  # fmt: skip
+    assert sum(e.kind == "goal.done" and e.behavior == "approach" for _, e in loop_events) == 2
+    assert any(e.kind == "goal.done" and e.behavior == "hug" for _, e in loop_events), "hugs that end"
+    assert loop_hash == array_hash
+
+
+@pytest.mark.parametrize("case", ["hug", "brawl"])
+def test_bench_pairs_run_the_same_over_arrays(scenes, monkeypatch, case):
+    """The bench's hugging pairs and brawl at 40: the same trajectory both ways."""
+    hashes = []
+    for over_arrays in (False, True):
+        monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
+        scene = {"hug": cases.hugging_pairs, "brawl": cases.brawl}[case](40)
+        scenes.append(scene)
+        scene.step(150)
+        hashes.append((scene.state_hash(), minds_of(scene)))
+    assert hashes[0] == hashes[1]
