@@ -64,9 +64,16 @@ class Tied(Behavior):
 
 
 class TiedEarly(Tied):
-    """:class:`Tied` under another name, scheduled before the embrace (it proposes first)."""
+    """:class:`Tied` proposing over arrays (``propose_crowd``), scheduled before the embrace (it
+    proposes first): ``value`` for ``names``, and for every other character a low activation
+    that differs from one to the next (under the embrace's and the hug's: they carry on)."""
 
     name = "tied_early"
+
+    def propose_crowd(self, crowd) -> np.ndarray:
+        names = [self.scene.name_of(entity) for entity in crowd.entities]
+        return np.array([self.value if name in self.names else 0.3 + 0.01 * (len(name) + k % 5)
+                         for k, name in enumerate(names)])  # fmt: skip
 
 
 class TiedLate(Tied):
@@ -75,16 +82,24 @@ class TiedLate(Tied):
     name = "tied_late"
 
 
+class TiedFirst(Tied):
+    """:class:`Tied` under another name (scheduled before the embrace)."""
+
+    name = "tied_first"
+
+
 def hugging_scene(over_arrays: bool, monkeypatch) -> tuple[Scene, list]:
     """Twelve characters in pairs: hugs short and long, a scripted partner (it does not embrace),
     plug-in behaviours proposing per character, tied with the embrace and a hug, proposing
     before and after them, and a goal given later. Returns the scene and its event log."""
     monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
     scene, pairs = cases._grid_of_pairs(12, seed=5)
-    scene.add_system(Tied()).names = ("b1", "a3")  # after the embrace: it loses b1's tie
+    # (after select_behavior: it proposes for the next step, before all the others)
+    scene.add_system(Tied(), after="hug").names = ("b1", "a3")
+    scene.add_system(TiedFirst(), before="embrace").names = ("b1",)  # tied with the embrace, which it beats
     early = scene.add_system(TiedEarly(), before="embrace")
-    early.names = ("b0", "b3", "a1")  # before it: it wins b0's and b3's ties
-    late = scene.add_system(TiedLate())
+    early.names = ("b0", "b3", "a1")  # before it: it wins b0's and b3's ties (a1: tied with its hug)
+    late = scene.add_system(TiedLate(), after="hug")
     late.names, late.value = ("a2",), GOAL_ACTIVATION  # a tie with a2's hug, which wins
     for k, (a, b) in enumerate(pairs):
         if k < 4:
@@ -127,8 +142,8 @@ def test_a_hugging_scene_selects_the_same_over_arrays_as_per_character(scenes, m
     for step, (a, b) in enumerate(zip(loop, arrays, strict=True)):
         assert a == b, step
     assert [(f, repr(e)) for f, e in loop_events] == [(f, repr(e)) for f, e in array_events]
-    assert {e.new for _, e in loop_events if hasattr(e, "new")} >= {"hug", "embrace", "tied", "tied_early",
-                                                                      "step_back"}  # fmt: skip
+    won = {"hug", "embrace", "tied_first", "tied_early", "step_back"}
+    assert {e.new for _, e in loop_events if hasattr(e, "new")} >= won
     assert sum(e.kind == "goal.done" and e.behavior == "approach" for _, e in loop_events) == 2
     assert any(e.kind == "goal.done" and e.behavior == "hug" for _, e in loop_events), "hugs that end"
     assert loop_hash == array_hash

@@ -130,18 +130,20 @@ class Behavior(System):
             if value > 0.0:
                 mind.activations[name] = value
 
-    def propose_all(self, frame: int, entities: Sequence[int], minds: Sequence[Mind], value: float) -> None:
-        """Propose ``value`` for every one of ``entities`` (``minds``: their minds) this step
-        (``frame``), as ``mind.activations[self.name] = value`` does for one: a list that
-        select_behavior takes in one piece and selects over arrays."""
+    def propose_all(self, frame: int, entities: Sequence[int], minds: Sequence[Mind],
+                    value: float | np.ndarray) -> None:  # fmt: skip
+        """Propose ``value`` (one for all, or one each) for every one of ``entities`` (``minds``:
+        their minds) this step (``frame``), as ``mind.activations[self.name] = value`` does for
+        one: a list that select_behavior takes in one piece and selects over arrays."""
+        value = float(value) if np.ndim(value) == 0 else np.asarray(value, dtype=np.float64)
         if not Behavior.propose_over_arrays:
-            for mind in minds:
-                mind.activations[self.name] = value
+            for mind, one in zip(minds, np.broadcast_to(value, len(minds)).tolist(), strict=True):
+                mind.activations[self.name] = one
             return
         made = self.scratch.get("proposed")
         if made is None or made[0] != frame:
             made = self.scratch["proposed"] = (frame, [])
-        made[1].append((next(_PROPOSAL_ORDER), self.name, entities, minds, float(value)))
+        made[1].append((next(_PROPOSAL_ORDER), self.name, entities, minds, value))
 
     def _proposers(self):
         """(entity, mind, goal) of each character this behaviour may propose for now: a
@@ -170,9 +172,10 @@ class Behavior(System):
         if len(values) != len(picked):
             raise TwigError(f"behaviour '{name}': propose_crowd gave {len(values)} values for {len(picked)} "
                             "characters")  # fmt: skip
-        for (_, mind, _), value in zip(picked, values.tolist(), strict=True):
-            if value > 0.0:
-                mind.activations[name] = value
+        wanted = np.flatnonzero(values > 0.0).tolist()
+        if wanted:
+            self.propose_all(ctx.frame, [picked[k][0] for k in wanted], [picked[k][1] for k in wanted],
+                             values[wanted])  # fmt: skip
 
     def activation(self, character: CharacterHandle, mind: Mind, goal: Goal | None) -> float:
         """How much this behaviour wants to run for this character now (0: not at all)."""

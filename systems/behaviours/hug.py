@@ -78,6 +78,7 @@ from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the
     embrace_arms,
     glide_hand,
     holding_hands,
+    hug_goal_ids,
     lower_hands,
     mutual_hug,
 )
@@ -363,7 +364,7 @@ class Hug(Behavior):
         done per character instead (:meth:`_act_each`), which says what went wrong."""
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        if any(goal is None for goal in goals):
+        if not all(goals):  # (a goal is always true)
             live = [k for k, goal in enumerate(goals) if goal is not None]
             rows, entities = [rows[k] for k in live], [entities[k] for k in live]
             goals = [goals[k] for k in live]
@@ -372,7 +373,7 @@ class Hug(Behavior):
         scene = self.scene
         state = scene.state
         table = self._goal_table()
-        hugs = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("hug"))
+        hugs = hug_goal_ids(scene, self.scratch)
         table.sync([goal.id for goal in goals], (hugs, state.version, id(state)),
                    lambda i, _: self._goal_row(rows[i], entities[i], goals[i]))  # fmt: skip
         if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt):
@@ -440,7 +441,7 @@ class Hug(Behavior):
         per-character path."""
         scene = self.scene
         phases = [goal.memory.get("phase", "approach") for goal in goals]
-        answers = table["answers"]
+        answers = table["answers"].tolist()
         walking = [k for k, phase in enumerate(phases) if phase == "approach"]
         close, answering, done = [], [], []
         for k, phase in enumerate(phases):
@@ -734,17 +735,20 @@ class Hug(Behavior):
         state = scene.state
         ch = state.characters
         table = self._table()
-        table.sync([goal.id for _, _, goal in close], (state.version, id(state)),
+        crow_list, _, goals = zip(*close, strict=True)
+        table.sync([goal.id for goal in goals], (state.version, id(state)),
                    lambda i, _: self._setup(*close[i]))  # fmt: skip
         if table.missing:  # those whose partner has gone have failed: left out
             close = [close[i] for i in table.positions]
             if not close:
                 return
-        crows = np.array([row for row, _, _ in close], dtype=np.int64)
+            crow_list, _, goals = zip(*close, strict=True)
+        memories = [goal.memory for goal in goals]
+        crows = np.array(crow_list, dtype=np.int64)
         partners = table["partner"]
         ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head
         ch.gaze_mode[crows] = GAZE_NODE
-        phase = np.array([PHASES[goal.memory["phase"]] for _, _, goal in close], dtype=np.int64)
+        phase = np.array([PHASES[memory["phase"]] for memory in memories], dtype=np.int64)
         on_back = np.empty(len(close), dtype=np.int64)
         asks = np.empty(len(close), dtype=np.int64)
         stoop_at = np.empty((len(close), 3))
@@ -755,7 +759,7 @@ class Hug(Behavior):
                  table["surface"], table["gap_links"], table["gap_links_start"], table["gap_links_count"],
                  _ROUNDS, dt, on_back, stoop_at, asks)  # fmt: skip
         now = scene.time
-        since = np.array([goal.memory["since"] for _, _, goal in close])
+        since = np.array([memory["since"] for memory in memories])
         ending = (phase == WRAP) & ((on_back == 2) | (now - since > WRAP_TIME))
         ending |= (phase == HOLD) & (now - since >= table["duration"])
         for k in np.flatnonzero(ending | (asks != 0)):

@@ -17,6 +17,7 @@ acts per character - go through the per-character loop, in entity order, as befo
 
 from __future__ import annotations
 
+from operator import attrgetter, itemgetter
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,8 @@ from twig_ecs.components import Character
 from twig_ecs.mind import BehaviorChanged, Mind
 from twig_ecs.step import StepContext
 from twig_ecs.system import System
+
+_ACTIVATIONS = attrgetter("activations")
 
 STICKINESS = 0.05  # activation bonus of the current winner
 MIN_DWELL = 0.25  # s a winner keeps the floor against ordinary rivals
@@ -98,7 +101,7 @@ class SelectBehaviorSystem(System):
         listed = self._listed(ctx.frame)
         batches: dict[str, list] = {}
         if not listed:
-            self._select_each([(e, c, m, m.activations) for e, (c, m) in items], ctx.dt, batches)
+            self._select_each(items, ctx.dt, batches)
         else:
             self._select_over_arrays(items, listed, ctx, batches)
         # batch behaviours act once for all the characters they won, after the others
@@ -140,27 +143,31 @@ class SelectBehaviorSystem(System):
             # a behaviour that proposed twice (its later value counts, in its first place), or
             # too many names for a set of bits: into the minds' dicts, for the loop
             for _, name, _, pending, value in listed:
-                for mind in pending:
-                    mind.activations[name] = value
-            self._select_each([(e, c, m, m.activations) for e, (c, m) in items], ctx.dt, batches)
-            self._forget_winners(table)
+                for mind, one in zip(pending, np.broadcast_to(value, len(pending)).tolist(), strict=True):
+                    mind.activations[name] = one
+            self._select_each(items, ctx.dt, batches)
+            table.winner[:] = [table.code(mind.winner) for mind in minds]
+            table.since[:] = [mind.since for mind in minds]
             self.scratch.pop("carried", None)
             return
         values = np.full((n, len(listed) + 1), -np.inf)
         values[:, -1] = IDLE
         codes = np.array([table.code(name) for name in names] + [table.code("idle")], dtype=np.int64)
+        proposed = {}  # each listed proposal's value where it is the same for all, else None
         for col, (_, name, entities, pending, value) in enumerate(listed):
-            values[self._positions(table, name, entities, pending, value), col] = value
+            at, value = self._positions(table, name, entities, pending, value)
+            values[at, col] = value
+            if isinstance(value, np.ndarray):
+                value = float(value[0]) if len(value) and (value == value[0]).all() else None
+            proposed[name] = value
         best = choose(values, codes, table.winner, table.since, ctx.time)
         # who goes per character: a proposal in its dict, a switch, or a winner that acts alone
         behaviors = self.scene.behaviors
         batch_code = np.array([name not in behaviors or behaviors[name].batch for name in table.names])
         alone = (best != table.winner) | ~batch_code[best]
-        alone[[k for k, mind in enumerate(minds) if mind.activations]] = True
+        if any(map(_ACTIVATIONS, minds)):
+            alone[[k for k, mind in enumerate(minds) if mind.activations]] = True
         present = values[:, :-1] != -np.inf
-        # which listed proposals each made, as bits of their behaviours' codes: its `last`
-        keys = present @ (np.int64(1) << codes[:-1])
-        proposed = dict(zip(names, [call[4] for call in listed], strict=True))
         # batch name -> the positions, rows, entities and goals of those only joining it
         joined: dict[str, tuple] = {}
         goals_changed = self.scene.goals.changes
@@ -175,45 +182,67 @@ class SelectBehaviorSystem(System):
                 alone[at] = True
                 continue
             joined[name] = members
-        # the minds carrying on get this step's proposals as `last`: one dict per set of
-        # proposals, given only to those whose set differs from their last step's (an equal
-        # dict is there already)
         carry = ~alone
-        before = self.scratch.get("carried")
+        self._give_last(table, carry, present, values, names, codes[:-1], proposed)
+        # the others through the loop, in entity order, their listed proposals in their dicts
+        each = [items[k] for k in np.flatnonzero(alone).tolist()]
+        for k in np.flatnonzero(alone & present.any(axis=1)).tolist():
+            self._merge(minds[k], listed, present[k], values[k])
+        for entity, mind in self._select_each(each, ctx.dt, batches, joined, table.position):
+            k = table.position[entity]
+            table.winner[k], table.since[k] = table.code(mind.winner), mind.since
+
+    def _give_last(self, table: _Minds, carry: np.ndarray, present: np.ndarray, values: np.ndarray,
+                   names: list[str], codes: np.ndarray, proposed: dict) -> None:  # fmt: skip
+        """The minds carrying on get this step's proposals as ``last``: one dict for all with
+        the same set of proposals (``proposed``: their values where the same for all), given
+        only to those whose set differs from their last step's (an equal dict is there
+        already); one each for those with a proposal whose value differs between them."""
+        minds = table.minds
+        keys = present @ (np.int64(1) << codes)  # which listed proposals each made, as bits
         fresh = carry.copy()
+        before = self.scratch.get("carried")
         if before is not None and before[0] is table and before[1] == proposed:
             fresh &= ~before[2] | (keys != before[3])
-        for key in np.unique(keys[fresh]).tolist() if fresh.any() else ():
-            at = np.flatnonzero(fresh & (keys == key))
-            last = {name: proposed[name] for name, bit in zip(names, codes[:-1].tolist(), strict=True)
-                    if key >> bit & 1}  # fmt: skip
-            last["idle"] = IDLE
-            for k in at.tolist():
+        varying = [col for col, name in enumerate(names) if proposed[name] is None]
+        if varying:
+            each = fresh & present[:, varying].any(axis=1)
+            fresh &= ~each
+            for k in np.flatnonzero(each).tolist():
+                last = {names[c]: float(values[k, c]) for c in np.flatnonzero(present[k]).tolist()}
+                last["idle"] = IDLE
                 minds[k].last = last
-        self.scratch["carried"] = (table, proposed, carry, keys)
-        each = []  # (entity, character, mind, proposals) for the loop, in entity order
-        for k in np.flatnonzero(alone).tolist():
-            entity, (character, mind) = items[k]
-            each.append((entity, character, mind, self._proposals(mind, listed, present[k], values[k])))
-        self._select_each(each, ctx.dt, batches, joined, table.position)
-        self._forget_winners(table, each)
+        for key in np.unique(keys[fresh]).tolist() if fresh.any() else ():
+            bits = codes.tolist()
+            last = {name: proposed[name] for name, bit in zip(names, bits, strict=True) if key >> bit & 1}
+            last["idle"] = IDLE
+            for k in np.flatnonzero(fresh & (keys == key)).tolist():
+                minds[k].last = last
+        # (a mind with a varying proposal gets a `last` each step: it counts as not carried on)
+        carried = carry & ~present[:, varying].any(axis=1) if varying else carry
+        self.scratch["carried"] = (table, proposed, carried, keys)
 
-    def _positions(self, table: _Minds, name: str, entities: list, minds: list, value: float) -> np.ndarray:
-        """The selection positions of the characters a listed proposal is for; a mind that is
-        no character's is never selected: its proposal goes into its dict (as it did)."""
+    def _positions(self, table: _Minds, name: str, entities: list, minds: list,
+                   value: float | np.ndarray) -> tuple[np.ndarray, float | np.ndarray]:  # fmt: skip
+        """The selection positions of the characters a listed proposal is for, and its values
+        there; a mind that is no character's is never selected: its proposal goes into its
+        dict (as it did)."""
         kept = self.scratch.get(("at", name))
         if kept is not None and kept[0] is table and kept[1] == entities:
-            return kept[2]
+            return kept[2], value
         try:
             at = np.fromiter(map(table.position.__getitem__, entities), np.int64, len(entities))
             self.scratch[("at", name)] = (table, list(entities), at)
-            return at
+            return at, value
         except KeyError:
             position = table.position
-            for entity, mind in zip(entities, minds, strict=True):
-                if entity not in position:
-                    mind.activations[name] = value
-            return np.array([position[e] for e in entities if e in position], dtype=np.int64)
+            inside = [e in position for e in entities]
+            every = np.broadcast_to(value, len(entities)).tolist()
+            for mind, one, ok in zip(minds, every, inside, strict=True):
+                if not ok:
+                    mind.activations[name] = one
+            at = np.array([position[e] for e, ok in zip(entities, inside, strict=True) if ok], dtype=np.int64)
+            return at, value if np.ndim(value) == 0 else np.asarray(value)[inside]
 
     def _members(self, table: _Minds, name: str, at: np.ndarray, goals_changed: int) -> tuple | None:
         """The positions, rows, entities and own goals of the characters at positions ``at``
@@ -234,45 +263,43 @@ class SelectBehaviorSystem(System):
         self.scratch[("members", name)] = (table, goals_changed, at, members)
         return members
 
-    def _proposals(self, mind: Mind, listed: list, present: np.ndarray, values: np.ndarray) -> dict:
-        """One character's proposals as a dict, the listed ones and its mind's, in the order
-        the behaviours proposed (the schedule's: a behaviour proposes under its own name)."""
+    def _merge(self, mind: Mind, listed: list, present: np.ndarray, values: np.ndarray) -> None:
+        """Put one character's listed proposals into its mind's dict, with those there, in the
+        order they were made (:meth:`_ranks`)."""
         proposals = {listed[c][1]: float(values[c]) for c in np.flatnonzero(present)}
-        if mind.activations:
-            systems = self.scene.schedule.systems
-            ranks = self.scratch.keyed("ranks", self.scene.frame,
-                                       lambda: {s.name: k for k, s in enumerate(systems())})  # fmt: skip
-            order = {name: ranks.get(name, len(ranks)) for name in proposals}
-            for name, value in mind.activations.items():
-                if name not in order:
-                    order[name] = ranks.get(name, len(ranks))
-                proposals[name] = value
-            proposals = dict(sorted(proposals.items(), key=lambda item: order[item[0]]))
-        return proposals
+        own = mind.activations
+        if own:
+            ranks = self.scratch.keyed("ranks", self.scene.frame, self._ranks)
+            proposals.update(own)
+            merged = sorted(proposals.items(), key=lambda item: ranks.get(item[0], -len(ranks)))
+            own.clear()
+            own.update(merged)
+        else:
+            own.update(proposals)
 
-    def _forget_winners(self, table: _Minds, each: list | None = None) -> None:
-        """Read the winners the loop wrote back into the table (all of them, or those in ``each``)."""
-        if each is None:
-            table.winner[:] = [table.code(mind.winner) for mind in table.minds]
-            table.since[:] = [mind.since for mind in table.minds]
-            return
-        position = table.position
-        for entity, _, mind, _ in each:
-            k = position[entity]
-            table.winner[k], table.since[k] = table.code(mind.winner), mind.since
+    def _ranks(self) -> dict[str, int]:
+        """The order in which this step's proposals were made, by behaviour name: a behaviour
+        proposes under its own name when it runs, one after select_behavior in the schedule
+        a step before (first), the others in the schedule's order; a name of no behaviour
+        first of all (written between steps)."""
+        systems = self.scene.schedule.systems()
+        me = next(k for k, system in enumerate(systems) if system is self)
+        return {system.name: k - len(systems) if k > me else k for k, system in enumerate(systems)}
 
     def _select_each(self, each: list, dt: float, batches: dict, joined: dict | None = None,
-                     position: dict | None = None) -> None:  # fmt: skip
-        """The per-character selection: for each (entity, character, mind, proposals) in entity
-        order, the winner with hysteresis, the switch (stop, start, event), the goal started,
-        and the act (or a place in its batch). ``joined``: the characters that only join a
-        batch (by position in ``position``'s order), merged into the batches in that order."""
+                     position: dict | None = None) -> list[tuple[int, Mind]]:  # fmt: skip
+        """The per-character selection: for each (entity, (character, mind)) in entity order,
+        over the proposals in its mind's dict: the winner with hysteresis, the switch (stop,
+        start, event), the goal started, and the act (or a place in its batch). ``joined``:
+        the characters that only join a batch (with their positions in ``position``'s order),
+        merged into the batches in that order. Returns (entity, mind) of those that switched."""
         scene = self.scene
         now = scene.time
         behaviors = scene.behaviors
         members: dict[str, tuple] = {}
-        added: dict[str, list] = {}  # batch name -> (position, row, entity, goal) the loop adds to `joined`
-        for entity, character, mind, proposals in each:
+        switched = []  # (entity, mind) of those whose winner changed
+        for entity, (character, mind) in each:
+            proposals = mind.activations
             was = mind.winner
             if len(proposals) == 1 and proposals.get(was, -1.0) >= IDLE:
                 # the one proposal is the winner's, above idle: it carries on (a crowd's usual step)
@@ -297,16 +324,13 @@ class SelectBehaviorSystem(System):
                 scene.emit(BehaviorChanged(entity, was, best))
                 mind.winner, mind.since = best, now
                 mind.switches += 1
+                switched.append((entity, mind))
                 new = behaviors.get(best)
                 if new is not None:
                     new.start(handle, goal if goal is not None and goal.behavior == best else None)
-            # this step's proposals become `last`; the next step's go into a fresh dict (a
-            # `last` may be shared by the minds that carried on over arrays)
-            if proposals is mind.activations:
-                mind.last, mind.activations = proposals, {}
-            else:
-                mind.last = proposals
-                mind.activations.clear()
+            # this step's proposals become `last`, the next step's go into a new dict (not last
+            # step's, which may be shared by the minds that carried on over arrays)
+            mind.last, mind.activations = proposals, {}
             winner = behaviors.get(best)
             if winner is None:
                 continue
@@ -314,25 +338,29 @@ class SelectBehaviorSystem(System):
             if own_goal is not None and own_goal.status == "pending":
                 own_goal.status, own_goal.started = "active", now
             if winner.batch:
-                if joined is None:
-                    batch = members.get(best)
-                    if batch is None:
-                        batch = members[best] = ([], [], [])
-                    batch[0].append(character.index)
-                    batch[1].append(entity)
-                    batch[2].append(own_goal)
-                else:
-                    added.setdefault(best, []).append((position[entity], character.index, entity, own_goal))
+                batch = members.get(best)
+                if batch is None:
+                    batch = members[best] = ([], [], [])
+                batch[0].append(character.index)
+                batch[1].append(entity)
+                batch[2].append(own_goal)
                 continue
             winner.act(handle or scene.character_handle(entity), mind, own_goal, dt)
         if joined is None:
             batches.update(members)
-            return
+            return switched
         # the batches in the order of their first member, each in entity order (the loop's)
-        for name, rows in added.items():
+        # (the kept lists of `joined` copied: act_batch gets its own)
+        merged = {name: (at[0], list(rows), list(entities), list(goals))
+                  for name, (at, rows, entities, goals) in joined.items()}  # fmt: skip
+        for name, (rows, entities, goals) in members.items():
+            at = [position[entity] for entity in entities]
             if name in joined:
-                rows += zip(*joined[name], strict=True)
-                rows.sort(key=lambda row: row[0])
-            joined[name] = tuple(list(column) for column in zip(*rows, strict=True))
-        for name, (_, rows, entities, goals) in sorted(joined.items(), key=lambda item: item[1][0][0]):
-            batches[name] = (list(rows), list(entities), list(goals))  # (kept lists: act_batch's own copies)
+                old = joined[name]
+                both = sorted(zip(at + old[0], rows + old[1], entities + old[2], goals + old[3], strict=True),
+                              key=itemgetter(0))  # fmt: skip
+                at, rows, entities, goals = (list(column) for column in zip(*both, strict=True))
+            merged[name] = (at[0], rows, entities, goals)
+        for name, (_, rows, entities, goals) in sorted(merged.items(), key=lambda item: item[1][0]):
+            batches[name] = (rows, entities, goals)
+        return switched
