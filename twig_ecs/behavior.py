@@ -118,9 +118,12 @@ class Behavior(System):
         name = self.name
         if self.goal_driven and type(self).activation is Behavior.activation:
             # the default: a fixed activation while its goal is current, no handle needed
-            holders = [(e, m) for e, m in self.candidates() if m.goals and m.goals[0].behavior == name]
-            if holders:
-                self.propose_all(ctx.frame, [e for e, _ in holders], [m for _, m in holders], GOAL_ACTIVATION)
+            if type(self).candidates is Behavior.candidates:  # the goal holders: kept while the goals are
+                entities, minds = self.scratch.keyed("holders", scene.goals.changes, self._goal_holders)
+            else:
+                entities, minds = self._goal_holders()
+            if entities:
+                self.propose_all(ctx.frame, entities, minds, GOAL_ACTIVATION)
             return
         if type(self).propose_crowd is not Behavior.propose_crowd:
             self._propose_over_arrays(ctx)
@@ -144,6 +147,12 @@ class Behavior(System):
         if made is None or made[0] != frame:
             made = self.scratch["proposed"] = (frame, [])
         made[1].append((next(_PROPOSAL_ORDER), self.name, entities, minds, value))
+
+    def _goal_holders(self) -> tuple[list[int], list[Mind]]:
+        """The entities and minds of the :meth:`candidates` whose current goal is this behaviour's."""
+        name = self.name
+        holders = [(e, m) for e, m in self.candidates() if m.goals and m.goals[0].behavior == name]
+        return [e for e, _ in holders], [m for _, m in holders]
 
     def _proposers(self):
         """(entity, mind, goal) of each character this behaviour may propose for now: a

@@ -254,9 +254,14 @@ class Embrace(Behavior):
         far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])
         near = np.where((phases == WRAP) | (phases == HOLD), NEAR, TURN_NEAR)
         # (a scripted character does only what it is told)
-        close = [pairs[k] for k in np.flatnonzero(far < near).tolist() if pairs[k][1].autonomous]
-        if close:
-            self.propose_all(ctx.frame, [pair[0] for pair in close], [pair[1] for pair in close], EMBRACE)
+        close = [k for k in np.flatnonzero(far < near).tolist() if pairs[k][1].autonomous]
+        if not close:
+            return
+        kept = self.scratch.get("close")  # the proposal's lists, kept while the same pairs are close
+        if kept is None or kept[0] is not pairs or kept[1] != close:
+            entities, minds = [pairs[k][0] for k in close], [pairs[k][1] for k in close]
+            kept = self.scratch["close"] = (pairs, close, entities, minds)
+        self.propose_all(ctx.frame, kept[2], kept[3], EMBRACE)
 
     def _rows(self) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
         """The pairs' hugged and hugger character rows, and each hugged entity's pair (made
