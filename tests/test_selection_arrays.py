@@ -149,14 +149,41 @@ def test_a_hugging_scene_selects_the_same_over_arrays_as_per_character(scenes, m
     assert loop_hash == array_hash
 
 
-@pytest.mark.parametrize("case", ["hug", "brawl"])
-def test_bench_pairs_run_the_same_over_arrays(scenes, monkeypatch, case):
-    """The bench's hugging pairs and brawl at 40: the same trajectory both ways."""
+#: The bench's crowds by case name.
+BUILD = {"hug": cases.hugging_pairs, "brawl": cases.brawl, "crowd": cases.crowd,
+         "approach": cases.approach_crowd}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(BUILD))
+def test_bench_crowds_run_the_same_over_arrays(scenes, monkeypatch, case):
+    """The bench's hugging pairs, brawl, wandering crowd and approach crowd at 40: the same
+    trajectory and minds both ways."""
     hashes = []
     for over_arrays in (False, True):
         monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
-        scene = {"hug": cases.hugging_pairs, "brawl": cases.brawl}[case](40)
+        scene = BUILD[case](40)
         scenes.append(scene)
         scene.step(150)
         hashes.append((scene.state_hash(), minds_of(scene)))
     assert hashes[0] == hashes[1]
+
+
+def test_the_goal_index_is_kept_across_steps_until_a_goal_is_given_or_ends(scenes):
+    """The holders of a goal behaviour are looked up once while no goal is given or ends (not
+    once a step), and again as soon as one is."""
+    scene, pairs = cases._grid_of_pairs(6, seed=5)
+    scenes.append(scene)
+    (a0, b0), (a1, b1), (a2, _) = pairs
+    a0.hug(b0.name, duration=0.2)
+    a1.hug(b1.name, duration=30.0)
+    scene.step()
+    first = scene.goal_holders_of("hug")
+    scene.step(5)
+    assert scene.goal_holders_of("hug") is first, "the same list: not looked up again"
+    a2.approach((0.0, 0.0, 0.0))
+    given = scene.goal_holders_of("hug")
+    assert given is not first and given == first
+    assert [e for e, _ in scene.goal_holders_of("approach")] == [a2.entity]
+    while a0.mind.goal is not None:  # the short hug ends
+        scene.step()
+    assert [e for e, _ in scene.goal_holders_of("hug")] == [a1.entity]
