@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import methodcaller
 
 import numpy as np
 from numba import njit
@@ -336,6 +337,9 @@ _GOAL_ROW = {
 #: The walk-up's steering gains: approach's (the same field and figures as ``steer_to``).
 
 
+_LED = methodcaller("get", "led")  # a hug goal's memory: it answered a mutual hug
+
+
 @register
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
@@ -374,9 +378,10 @@ class Hug(Behavior):
         state = scene.state
         table = self._goal_table()
         hugs = hug_goal_ids(scene, self.scratch)
-        table.sync([goal.id for goal in goals], (hugs, state.version, id(state)),
+        ids = [goal.id for goal in goals]
+        table.sync(ids, (hugs, state.version, id(state)),
                    lambda i, _: self._goal_row(rows[i], entities[i], goals[i]))  # fmt: skip
-        if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt):
+        if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt, ids):
             self._act_each(rows, entities, goals, dt)
 
     def _act_each(self, rows: list[int], entities: list[int], goals: list, dt: float) -> None:
@@ -435,12 +440,17 @@ class Hug(Behavior):
         return table
 
     def _act_over_arrays(self, rows: list[int], entities: list[int], goals: list, table: RowTable,
-                         dt: float) -> bool:  # fmt: skip
+                         dt: float, ids: list[int]) -> bool:  # fmt: skip
         """:meth:`_act_each`'s work with the walk-up over arrays (every goal has its row in
-        ``table``, in order); False, having changed nothing, when a rare event wants the
-        per-character path."""
+        ``table``, in order; ``ids``: the goals' ids); False, having changed nothing, when a rare
+        event wants the per-character path."""
         scene = self.scene
-        phases = [goal.memory.get("phase", "approach") for goal in goals]
+        memories = [goal.memory for goal in goals]
+        phases = [memory.get("phase", "approach") for memory in memories]
+        if "approach" not in phases and not table["answers"].any() and not any(map(_LED, memories)):
+            # every one wraps or holds, none answering (a long hug's usual step)
+            self._wrap_and_hold(list(zip(rows, entities, goals, strict=True)), dt, (ids, memories, phases))
+            return True
         answers = table["answers"].tolist()
         walking = [k for k, phase in enumerate(phases) if phase == "approach"]
         close, answering, done = [], [], []
@@ -730,25 +740,30 @@ class Hug(Behavior):
             table = self.scratch["close"] = RowTable(**_HUG_ROW)
         return table
 
-    def _wrap_and_hold(self, close: list, dt: float) -> None:
+    def _wrap_and_hold(self, close: list, dt: float, known: tuple | None = None) -> None:
+        """Wrap the arms round and hold, for the huggers ``close`` (row, entity, goal); ``known``:
+        their goals' ids, memories and phases, where the caller has them."""
         scene = self.scene
         state = scene.state
         ch = state.characters
         table = self._table()
         crow_list, _, goals = zip(*close, strict=True)
-        table.sync([goal.id for goal in goals], (state.version, id(state)),
-                   lambda i, _: self._setup(*close[i]))  # fmt: skip
+        ids, memories, phases = known if known is not None else ([goal.id for goal in goals], None, None)
+        table.sync(ids, (state.version, id(state)), lambda i, _: self._setup(*close[i]))
         if table.missing:  # those whose partner has gone have failed: left out
             close = [close[i] for i in table.positions]
             if not close:
                 return
             crow_list, _, goals = zip(*close, strict=True)
-        memories = [goal.memory for goal in goals]
+            memories = phases = None
+        if memories is None:
+            memories = [goal.memory for goal in goals]
+            phases = [memory["phase"] for memory in memories]
         crows = np.array(crow_list, dtype=np.int64)
         partners = table["partner"]
         ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head
         ch.gaze_mode[crows] = GAZE_NODE
-        phase = np.array([PHASES[memory["phase"]] for memory in memories], dtype=np.int64)
+        phase = np.array([PHASES[name] for name in phases], dtype=np.int64)
         on_back = np.empty(len(close), dtype=np.int64)
         asks = np.empty(len(close), dtype=np.int64)
         stoop_at = np.empty((len(close), 3))
