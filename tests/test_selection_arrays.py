@@ -14,7 +14,8 @@ from twig_ecs.bench import cases
 from twig_ecs.components import Character
 from twig_ecs.mind import GOAL_ACTIVATION, Mind
 from twig_ecs.systems.behaviours.embrace import EMBRACE
-from twig_ecs.systems.control.select_behavior import IDLE, MIN_DWELL, STICKINESS, URGENT, choose
+from twig_ecs.systems.control.select_behavior import IDLE, MIN_DWELL, STICKINESS, URGENT
+from twig_ecs.systems.control.selection import choose_winners
 
 
 def loop_winner(proposals: dict[str, float], was: str, since: float, now: float) -> str:
@@ -30,9 +31,10 @@ def loop_winner(proposals: dict[str, float], was: str, since: float, now: float)
     return best
 
 
-def test_choose_picks_the_winner_the_per_character_rule_picks():
+def test_the_compiled_pass_picks_the_winner_the_per_character_rule_picks():
     """Random proposals with ties, bonuses just over and under STICKINESS and URGENT, winners
-    held and not: every character's winner is the loop's."""
+    held and not: every character's winner is the loop's; it goes through the loop where it
+    switched or its winner acts alone; its listed proposals as bits of their codes."""
     rng = np.random.default_rng(7)
     names = ["a", "b", "c", "idle"]
     n = 4000
@@ -42,10 +44,17 @@ def test_choose_picks_the_winner_the_per_character_rule_picks():
     was = rng.integers(0, 4, n)
     since = rng.choice([0.0, 0.9, 1.0 - MIN_DWELL, 0.95], n)
     now = 1.0
-    got = choose(values, np.arange(4), was, since, now)
+    codes = np.array([2, 0, 1, 3])  # columns "c", "a", "b", idle by code
+    batch = np.array([False, True, True, True])  # by code: "a" acts alone
+    got, alone, keys = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
+    choose_winners(values, codes, codes[was], since, now, batch, got, alone, keys)
+    column_names = ["c", "a", "b", "idle"]
     for k in range(n):
-        proposals = {names[c]: float(values[k, c]) for c in range(3) if values[k, c] != -np.inf}
-        assert names[got[k]] == loop_winner(proposals, names[was[k]], float(since[k]), now), k
+        proposals = {column_names[c]: float(values[k, c]) for c in range(3) if values[k, c] != -np.inf}
+        winner = loop_winner(proposals, column_names[was[k]], float(since[k]), now)
+        assert names[got[k]] == winner, k
+        assert alone[k] == (winner != column_names[was[k]] or winner == "a"), k
+        assert keys[k] == sum(1 << int(codes[c]) for c in range(3) if values[k, c] != -np.inf), k
 
 
 class Tied(Behavior):

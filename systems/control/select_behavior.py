@@ -8,11 +8,12 @@ at least ``MIN_DWELL`` seconds unless a rival beats it by ``URGENT`` (a reflex s
 withdrawal), so two behaviours with near-equal activations cannot trade places every frame.
 
 Selection over arrays: the proposals made as lists (a goal behaviour's fixed activation,
-the embrace's) are columns of one table, a row per character, and every character's winner
-and its hysteresis are found in one numpy pass (:func:`choose`). A character whose winner
-carries on over a batch behaviour is only added to its batch; the others - a proposal in
-its mind's dict (a per-character ``activation``), a switch, a goal starting, a winner that
-acts per character - go through the per-character loop, in entity order, as before.
+the embrace's, ``propose_crowd``'s, the wanderers') are columns of one table, a row per
+character, and every character's winner and its hysteresis are found in one compiled pass
+(``selection.choose_winners``). A character whose winner carries on over a batch behaviour
+is only added to its batch; the others - a proposal in its mind's dict (a per-character
+``activation``), a switch, a goal starting, a winner that acts per character - go through
+the per-character loop, in entity order, as before.
 """
 
 from __future__ import annotations
@@ -27,46 +28,15 @@ from twig_ecs.mind import BehaviorChanged, Mind
 from twig_ecs.step import StepContext
 from twig_ecs.system import System
 
+# (the rule's figures live with its compiled pass, and are here too, where they always were)
+from twig_ecs.systems.control.selection import IDLE, MIN_DWELL, STICKINESS, URGENT, choose_winners
+
 _ACTIVATIONS = attrgetter("activations")
-
-STICKINESS = 0.05  # activation bonus of the current winner
-MIN_DWELL = 0.25  # s a winner keeps the floor against ordinary rivals
-URGENT = 0.3  # a rival this much stronger takes over at once
-IDLE = 0.1  # activation of doing nothing in particular
-
-
-def choose(values: np.ndarray, codes: np.ndarray, was: np.ndarray, since: np.ndarray,
-           now: float) -> np.ndarray:  # fmt: skip
-    """Every character's winner, as the per-character loop picks it.
-
-    ``values`` (characters x proposals): activations, ``-inf`` where a character has no such
-    proposal; the last column is idle's (``IDLE`` for all). ``codes``: each column's behaviour
-    code (no code twice); ``was``, ``since``: each character's winner code and the time it
-    won. The highest proposal wins (the first column of equal ones: a dict's order, in which
-    the behaviours proposed); the current winner, where it proposed, keeps the floor unless
-    beaten by more than ``STICKINESS``, or by ``URGENT`` within ``MIN_DWELL`` of winning.
-    Returns the winners' codes.
-    """
-    best_col = values.argmax(axis=1)
-    best = codes[best_col]
-    rivals = np.flatnonzero(best != was)
-    if len(rivals) == 0:  # every winner carries on (a crowd's usual step)
-        return best
-    values, best_col, was, since = values[rivals], best_col[rivals], was[rivals], since[rivals]
-    was_cols = (codes[None, :] == was[:, None]) & (values != -np.inf)
-    was_col = was_cols.argmax(axis=1)
-    at = np.arange(len(rivals))
-    # the same float arithmetic as the loop: best - (was + STICKINESS), now - since
-    margin = values[at, best_col] - (values[at, was_col] + STICKINESS)
-    held = (now - since) < MIN_DWELL
-    keep = was_cols[at, was_col] & ((margin <= 0.0) | (held & (margin < URGENT)))
-    best[rivals[keep]] = was[keep]
-    return best
 
 
 class _Minds:
     """The characters in selection order (the (Character, Mind) query's), with each one's
-    winner as a code and the time it won: what :func:`choose` reads, kept between steps
+    winner as a code and the time it won: what ``choose_winners`` reads, kept between steps
     (select_behavior is the only writer of a mind's winner)."""
 
     def __init__(self, items: list, state) -> None:
@@ -132,7 +102,7 @@ class SelectBehaviorSystem(System):
         return table
 
     def _select_over_arrays(self, items: list, listed: list, ctx: StepContext, batches: dict) -> None:
-        """:meth:`_select_each`, the winners found by :func:`choose` over the listed proposals;
+        """:meth:`_select_each`, the winners found by ``choose_winners`` over the listed proposals;
         only the characters with something to do beyond joining their winner's batch go
         through the per-character loop."""
         table = self._table(items)
@@ -160,11 +130,11 @@ class SelectBehaviorSystem(System):
             if isinstance(value, np.ndarray):
                 value = float(value[0]) if len(value) and (value == value[0]).all() else None
             proposed[name] = value
-        best = choose(values, codes, table.winner, table.since, ctx.time)
-        # who goes per character: a proposal in its dict, a switch, or a winner that acts alone
+        # who goes per character: a switch, a winner that acts alone, or a proposal in its dict
         behaviors = self.scene.behaviors
-        batch_code = np.array([name not in behaviors or behaviors[name].batch for name in table.names])
-        alone = (best != table.winner) | ~batch_code[best]
+        batch = np.array([name not in behaviors or behaviors[name].batch for name in table.names])
+        best, alone, keys = np.empty(n, np.int64), np.empty(n, np.bool_), np.empty(n, np.int64)
+        choose_winners(values, codes, table.winner, table.since, ctx.time, batch, best, alone, keys)
         if any(map(_ACTIVATIONS, minds)):
             alone[[k for k, mind in enumerate(minds) if mind.activations]] = True
         present = values[:, :-1] != -np.inf
@@ -183,7 +153,7 @@ class SelectBehaviorSystem(System):
                 continue
             joined[name] = members
         carry = ~alone
-        self._give_last(table, carry, present, values, names, codes[:-1], proposed)
+        self._give_last(table, carry, present, values, keys, names, codes[:-1], proposed)
         # the others through the loop, in entity order, their listed proposals in their dicts
         each = [items[k] for k in np.flatnonzero(alone).tolist()]
         for k in np.flatnonzero(alone & present.any(axis=1)).tolist():
@@ -193,13 +163,14 @@ class SelectBehaviorSystem(System):
             table.winner[k], table.since[k] = table.code(mind.winner), mind.since
 
     def _give_last(self, table: _Minds, carry: np.ndarray, present: np.ndarray, values: np.ndarray,
-                   names: list[str], codes: np.ndarray, proposed: dict) -> None:  # fmt: skip
+                   keys: np.ndarray, names: list[str], codes: np.ndarray,
+                   proposed: dict) -> None:  # fmt: skip
         """The minds carrying on get this step's proposals as ``last``: one dict for all with
-        the same set of proposals (``proposed``: their values where the same for all), given
+        the same set of proposals (``keys``: as bits of their ``codes``; ``proposed``: their
+        values where the same for all), given
         only to those whose set differs from their last step's (an equal dict is there
         already); one each for those with a proposal whose value differs between them."""
         minds = table.minds
-        keys = present @ (np.int64(1) << codes)  # which listed proposals each made, as bits
         fresh = carry.copy()
         before = self.scratch.get("carried")
         if before is not None and before[0] is table and before[1] == proposed:
