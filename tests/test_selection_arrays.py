@@ -196,3 +196,20 @@ def test_the_goal_index_is_kept_across_steps_until_a_goal_is_given_or_ends(scene
     while a0.mind.goal is not None:  # the short hug ends
         scene.step()
     assert [e for e, _ in scene.goal_holders_of("hug")] == [a1.entity]
+
+
+def test_two_systems_of_one_behaviour_both_count_over_arrays(scenes, monkeypatch):
+    """Two systems of one behaviour (the second in the schedule under another name) proposing
+    over arrays under the behaviour's one name: both proposals count, as both dict writes did
+    (one name twice in a step: selected the per-character way)."""
+    runs = []
+    for over_arrays in (False, True):
+        monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
+        scene, pairs = cases._grid_of_pairs(4, seed=5)
+        scenes.append(scene)
+        scene.add_system(TiedEarly(), before="embrace").names = ("a0", "b0")
+        scene.add_system(TiedEarly(), name="tied_early_too", before="embrace").names = ("a1", "b1")
+        scene.step(20)
+        runs.append(minds_of(scene))
+    assert runs[0] == runs[1]
+    assert {winner for _, winner, *_ in runs[1]} == {"tied_early"}, "every character wins it"
