@@ -14,7 +14,7 @@ from twig_ecs.bench import cases
 from twig_ecs.components import Character
 from twig_ecs.mind import GOAL_ACTIVATION, Mind
 from twig_ecs.systems.behaviours.embrace import EMBRACE
-from twig_ecs.systems.control.select_behavior import IDLE, MIN_DWELL, STICKINESS, URGENT
+from twig_ecs.systems.control.select_behavior import IDLE, MIN_DWELL, STICKINESS, URGENT, SelectBehaviorSystem
 from twig_ecs.systems.control.selection import choose_winners
 
 
@@ -213,3 +213,66 @@ def test_two_systems_of_one_behaviour_both_count_over_arrays(scenes, monkeypatch
         runs.append(minds_of(scene))
     assert runs[0] == runs[1]
     assert {winner for _, winner, *_ in runs[1]} == {"tied_early"}, "every character wins it"
+
+
+def test_steps_without_listed_proposals_between_goals_select_the_same(scenes, monkeypatch):
+    """A walker's goals with idle steps between (no proposal made as a list: the loop alone
+    selects, and its winner goes back to idle): the next goal starts with a switch, both ways."""
+    runs = []
+    for over_arrays in (False, True):
+        monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
+        scene, pairs = cases._grid_of_pairs(2, seed=5)
+        scenes.append(scene)
+        walker = pairs[0][0]
+        changes: list = []
+        scene.on("behavior.changed", lambda e, s=scene, c=changes: c.append((s.frame, e.old, e.new)))
+        seen = []
+        x, _, z = walker.position
+        for k in range(3):
+            walker.approach((float(x) + 0.5 * (k % 2), 0.0, float(z) + 0.5))
+            while walker.mind.goal is not None:
+                scene.step()
+                seen.append(minds_of(scene))
+            scene.step(20)  # idle
+            seen.append(minds_of(scene))
+        runs.append((seen, changes))
+    assert runs[0] == runs[1]
+    assert [new for _, _, new in runs[1][1]].count("approach") == 3, "each walk starts with a switch"
+
+
+class Toggled(Behavior):
+    """Proposes over arrays while ``on`` (for everyone), nothing otherwise; acts in a batch,
+    doing nothing."""
+
+    name = "toggled"
+    batch = True
+    on = True
+
+    def propose_crowd(self, crowd) -> np.ndarray:
+        return np.full(len(crowd.entities), 0.5 if self.on else 0.0)
+
+    def act_batch(self, rows, entities, dt, goals=None) -> None:
+        pass
+
+
+def test_a_behaviour_that_stops_proposing_and_starts_again_switches_both_ways(scenes, monkeypatch):
+    """Steps with no proposal made as a list (the loop alone selects) between steps with them:
+    the winner goes to idle and back, with a switch each time, both ways."""
+    runs = []
+    for over_arrays in (False, True):
+        monkeypatch.setattr(Behavior, "propose_over_arrays", over_arrays)
+        scene = Scene(plugins=[])
+        scenes.append(scene)
+        toggled = scene.add_system(Toggled())
+        scene.add_system(SelectBehaviorSystem())
+        scene.spawn("humanoid", name="kid", character=True)
+        changes: list = []
+        scene.on("behavior.changed", lambda e, s=scene, c=changes: c.append((s.frame, e.old, e.new)))
+        for on in (True, False, True, False, True):
+            toggled.on = on
+            scene.step(30)
+        runs.append(changes)
+    assert runs[0] == runs[1]
+    assert [(old, new) for _, old, new in runs[1]] == [("idle", "toggled"), ("toggled", "idle")] * 2 + [
+        ("idle", "toggled")
+    ]

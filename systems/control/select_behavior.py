@@ -72,7 +72,8 @@ class SelectBehaviorSystem(System):
         listed = self._listed(ctx.frame)
         batches: dict[str, list] = {}
         if not listed:
-            self._select_each(items, ctx.dt, batches)
+            switched = self._select_each(items, ctx.dt, batches)
+            self._forget(switched)
         else:
             self._select_over_arrays(items, listed, ctx, batches)
         # batch behaviours act once for all the characters they won, after the others
@@ -96,6 +97,17 @@ class SelectBehaviorSystem(System):
         listed.sort(key=lambda call: call[0])
         return listed
 
+    def _forget(self, switched: list[tuple[int, Mind]]) -> None:
+        """After a step selected by the loop alone: the table's winners of the ones that
+        switched (the minds' `last` are their own now: none counts as carried on)."""
+        self.scratch.pop("carried", None)
+        table = self.scratch.get("minds")
+        if table is not None and switched:
+            for entity, mind in switched:
+                k = table.position.get(entity)
+                if k is not None:
+                    table.winner[k], table.since[k] = table.code(mind.winner), mind.since
+
     def _table(self, items: list) -> _Minds:
         state = self.scene.state
         table = self.scratch.get("minds")
@@ -117,10 +129,7 @@ class SelectBehaviorSystem(System):
             for _, name, _, pending, value in listed:
                 for mind, one in zip(pending, np.broadcast_to(value, len(pending)).tolist(), strict=True):
                     mind.activations[name] = one
-            self._select_each(items, ctx.dt, batches)
-            table.winner[:] = [table.code(mind.winner) for mind in minds]
-            table.since[:] = [mind.since for mind in minds]
-            self.scratch.pop("carried", None)
+            self._forget(self._select_each(items, ctx.dt, batches))
             return
         values = np.full((n, len(listed) + 1), -np.inf)
         values[:, -1] = IDLE
