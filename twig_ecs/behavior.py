@@ -13,6 +13,7 @@ end is reported as a ``goal.done`` or ``goal.failed`` event (and to a callback).
 
 from __future__ import annotations
 
+import itertools
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -37,6 +38,8 @@ from twig_ecs.system import System
 from twig_ecs.validate import suggest
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from twig_ecs.character import CharacterHandle
     from twig_ecs.step import StepContext
 
@@ -65,6 +68,10 @@ class Behavior(System):
     component: ClassVar[type | None] = None
     #: A reflex (pain withdrawal) runs even for a scripted, non-autonomous character.
     reflex: ClassVar[bool] = False
+
+    #: Proposals made with :meth:`propose_all` go to select_behavior as lists, which it
+    #: selects over arrays (False: into each mind's dict, the per-character form).
+    propose_over_arrays: ClassVar[bool] = True
 
     #: A batch behaviour acts for all the characters it wins in one call,
     #: :meth:`act_batch`, over arrays (crowds); others act per character.
@@ -111,10 +118,12 @@ class Behavior(System):
         name = self.name
         if self.goal_driven and type(self).activation is Behavior.activation:
             # the default: a fixed activation while its goal is current, no handle needed
-            for _, mind in self.candidates():
-                goals = mind.goals
-                if goals and goals[0].behavior == name:
-                    mind.activations[name] = GOAL_ACTIVATION
+            if type(self).candidates is Behavior.candidates:  # the goal holders: kept while the goals are
+                entities, minds = self.scratch.keyed("holders", scene.goals.changes, self._goal_holders)
+            else:
+                entities, minds = self._goal_holders()
+            if entities:
+                self.propose_all(ctx.frame, entities, minds, GOAL_ACTIVATION)
             return
         if type(self).propose_crowd is not Behavior.propose_crowd:
             self._propose_over_arrays(ctx)
@@ -123,6 +132,27 @@ class Behavior(System):
             value = self.activation(scene.character_handle(entity), mind, goal)
             if value > 0.0:
                 mind.activations[name] = value
+
+    def propose_all(self, frame: int, entities: Sequence[int], minds: Sequence[Mind],
+                    value: float | np.ndarray) -> None:  # fmt: skip
+        """Propose ``value`` (one for all, or one each) for every one of ``entities`` (``minds``:
+        their minds) this step (``frame``), as ``mind.activations[self.name] = value`` does for
+        one: a list that select_behavior takes in one piece and selects over arrays."""
+        value = float(value) if np.ndim(value) == 0 else np.asarray(value, dtype=np.float64)
+        if not Behavior.propose_over_arrays:
+            for mind, one in zip(minds, np.broadcast_to(value, len(minds)).tolist(), strict=True):
+                mind.activations[self.name] = one
+            return
+        made = self.scratch.get("proposed")
+        if made is None or made[0] != frame:
+            made = self.scratch["proposed"] = (frame, [])
+        made[1].append((next(_PROPOSAL_ORDER), self.name, entities, minds, value))
+
+    def _goal_holders(self) -> tuple[list[int], list[Mind]]:
+        """The entities and minds of the :meth:`candidates` whose current goal is this behaviour's."""
+        name = self.name
+        holders = [(e, m) for e, m in self.candidates() if m.goals and m.goals[0].behavior == name]
+        return [e for e, _ in holders], [m for _, m in holders]
 
     def _proposers(self):
         """(entity, mind, goal) of each character this behaviour may propose for now: a
@@ -151,9 +181,10 @@ class Behavior(System):
         if len(values) != len(picked):
             raise TwigError(f"behaviour '{name}': propose_crowd gave {len(values)} values for {len(picked)} "
                             "characters")  # fmt: skip
-        for (_, mind, _), value in zip(picked, values.tolist(), strict=True):
-            if value > 0.0:
-                mind.activations[name] = value
+        wanted = np.flatnonzero(values > 0.0).tolist()
+        if wanted:
+            self.propose_all(ctx.frame, [picked[k][0] for k in wanted], [picked[k][1] for k in wanted],
+                             values[wanted])  # fmt: skip
 
     def activation(self, character: CharacterHandle, mind: Mind, goal: Goal | None) -> float:
         """How much this behaviour wants to run for this character now (0: not at all)."""
@@ -206,6 +237,10 @@ class Behavior(System):
         """End ``goal`` (done or failed) and report it."""
         character.scene.end_goal(character, goal, ok, reason)
 
+
+#: The order proposals are made in, across behaviours: a character's proposals are compared
+#: in it (the first of equal ones wins, as in a mind's dict).
+_PROPOSAL_ORDER = itertools.count()
 
 #: Behaviour kinds by name: the systems that implement them (filled by register()).
 REGISTRY: dict[str, type[Behavior]] = {}

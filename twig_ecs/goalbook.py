@@ -21,6 +21,10 @@ class GoalBook:
     Goal-driven behaviours look only at the holders, so a step costs as many characters as
     hold goals, not all of them: characters join when given a goal (:meth:`note`) and leave
     once their goals have run out.
+
+    A mind's goals change only through :meth:`note` (after the goal is queued) and
+    :meth:`end`: what is made from them (the index by behaviour, a batch's goals) is kept
+    until :attr:`changes` moves.
     """
 
     def __init__(self, world: World, emit: Callable[[Event], None]) -> None:
@@ -30,8 +34,8 @@ class GoalBook:
         self._holders: dict[int, Mind] = {}
         self._changes = 0
         # holders by the behaviour of their current goal, rebuilt when a goal is given or ends
-        # or a step begins (holders_of)
-        self._index: tuple[tuple[int, int], dict[str, list[tuple[int, Mind]]]] = ((-1, -1), {})
+        # (holders_of)
+        self._index: tuple[int, dict[str, list[tuple[int, Mind]]]] = (-1, {})
 
     def new_id(self) -> int:
         """A fresh goal id, unique within this scene (1, 2, 3...)."""
@@ -48,6 +52,12 @@ class GoalBook:
         self._holders.pop(entity, None)
         self._changes += 1
 
+    @property
+    def changes(self) -> int:
+        """How many times a goal was given or ended, or a holder went: a key for what is
+        made from the goals (a batch's goals, kept while it is unchanged)."""
+        return self._changes
+
     def holders(self) -> list[tuple[int, Mind]]:
         """(entity, mind) of the characters holding goals, in the order they were given them."""
         holders = self._holders
@@ -56,12 +66,13 @@ class GoalBook:
         return list(holders.items())
 
     def holders_of(self, behavior: str, frame: int) -> list[tuple[int, Mind]]:
-        """The :meth:`holders` whose current goal is for ``behavior``, in the same order.
+        """The :meth:`holders` whose current goal is for ``behavior``, in the same order (a
+        list kept until a goal is given or ends: not to be changed).
 
-        One pass over the holders serves every goal behaviour of a step (``frame``), instead
-        of one pass each.
+        One pass over the holders serves every goal behaviour of every step until the goals
+        change, instead of one pass each. (``frame``: the step asking, unused.)
         """
-        key = (frame, self._changes)
+        key = self._changes
         if self._index[0] != key:
             index: dict[str, list[tuple[int, Mind]]] = {}
             for entity, mind in self.holders():

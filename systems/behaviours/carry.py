@@ -16,7 +16,7 @@ import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
 from twig_ecs.character import GRAB_REACH
-from twig_ecs.components import Character
+from twig_ecs.components import Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.goals import GoalSchema, Param, metres, speed
 from twig_ecs.kernelmath import HANG
@@ -320,6 +320,8 @@ class Cradle(Behavior):
 
     def run(self, ctx: StepContext) -> None:
         """Put every hanging hand that holds a loose thing in the carry pose."""
+        if not ctx.world.get_component(GrabJoint):  # no hand holds anything (a crowd's usual step)
+            return
         scene = self.scene
         modes = scene.state.characters.arm_mode
         for entity, (character, _) in ctx.world.get_components(Character, Mind):

@@ -191,6 +191,17 @@ def holding_hands(scene, entities) -> np.ndarray:
     return free
 
 
+def hug_goal_ids(scene, scratch) -> tuple[int, ...]:
+    """The ids of the hug goals being carried out (the current goals of the hug's goal holders):
+    a key for what is made from who hugs whom. Kept in ``scratch`` (a behaviour's) until a goal
+    is given or ends."""
+
+    def ids() -> tuple[int, ...]:
+        return tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("hug"))
+
+    return scratch.keyed("hug_ids", scene.goals.changes, ids)
+
+
 @register
 class Embrace(Behavior):
     """Hold someone who hugs you: face them, stoop to them, arms round their back."""
@@ -203,8 +214,7 @@ class Embrace(Behavior):
         looked up again when the hug goals or the store's rows change."""
         scene = self.scene
         state = scene.state
-        holders = scene.goal_holders_of("hug")
-        key = (tuple(mind.goals[0].id for _, mind in holders), state.version, id(state))
+        key = (hug_goal_ids(scene, self.scratch), state.version, id(state))
         return self.scratch.keyed("pairs", key, self._find_pairs)
 
     def _find_pairs(self) -> list[tuple]:
@@ -231,9 +241,10 @@ class Embrace(Behavior):
     def run(self, ctx: StepContext) -> None:
         """Propose EMBRACE for every autonomous character a hugger is close to (or coming to)."""
         pairs = self._pairs()
-        # the pairs and each one's hug phase, this step (made again each step from the hug
-        # goals: a cache, which a snapshot does not keep), for act_batch
-        phases = [p[5].memory.get("phase", "approach") for p in pairs]
+        # the pairs and each one's hug phase (PHASES), this step (made again each step from the
+        # hug goals: a cache, which a snapshot does not keep), for act_batch
+        phases = [PHASES.get(pair[5].memory.get("phase", "approach"), 0) for pair in pairs]
+        phases = np.array(phases, dtype=np.int64)
         rows = self.scratch["this_step"] = (self._rows(), phases)
         if not pairs:
             return
@@ -241,11 +252,16 @@ class Embrace(Behavior):
         hugged, huggers, _ = rows[0]
         mine, theirs = pos[nodes[hugged, PELVIS]], pos[nodes[huggers, PELVIS]]
         far = np.hypot(theirs[:, 0] - mine[:, 0], theirs[:, 2] - mine[:, 2])
-        near = np.where([phase in ("wrap", "hold") for phase in phases], NEAR, TURN_NEAR)
-        for k in np.flatnonzero(far < near).tolist():
-            mind = pairs[k][1]
-            if mind.autonomous:  # a scripted character does only what it is told
-                mind.activations[self.name] = EMBRACE
+        near = np.where((phases == WRAP) | (phases == HOLD), NEAR, TURN_NEAR)
+        # (a scripted character does only what it is told)
+        close = [k for k in np.flatnonzero(far < near).tolist() if pairs[k][1].autonomous]
+        if not close:
+            return
+        kept = self.scratch.get("close")  # the proposal's lists, kept while the same pairs are close
+        if kept is None or kept[0] is not pairs or kept[1] != close:
+            entities, minds = [pairs[k][0] for k in close], [pairs[k][1] for k in close]
+            kept = self.scratch["close"] = (pairs, close, entities, minds)
+        self.propose_all(ctx.frame, kept[2], kept[3], EMBRACE)
 
     def _rows(self) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
         """The pairs' hugged and hugger character rows, and each hugged entity's pair (made
@@ -270,10 +286,14 @@ class Embrace(Behavior):
         state = scene.state
         ch = state.characters
         (_, hugger_rows, slots), phases = self.scratch["this_step"]
-        picked = np.array([slots[e] for e in entities], dtype=np.int64)
+        picked = self.scratch.get("picked")  # the pairs of these entities (kept while they are the same)
+        if picked is None or picked[0] is not slots or picked[1] != entities:
+            picked = self.scratch["picked"] = (slots, list(entities), np.array([slots[e] for e in entities],
+                                                                              dtype=np.int64))  # fmt: skip
+        picked = picked[2]
         huggers = hugger_rows[picked]
         crows = np.array(rows, dtype=np.int64)
-        phase = np.array([PHASES.get(phases[k], 0) for k in picked.tolist()], dtype=np.int64)
+        phase = phases[picked]
         ch.gaze_node[crows] = ch.nodes[huggers, HEAD]  # look at the hugger's head
         ch.gaze_mode[crows] = GAZE_NODE
         stoop_at = np.empty((len(rows), 3))

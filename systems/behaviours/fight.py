@@ -106,8 +106,11 @@ class Defend(Behavior):
         grapple goals or the store's rows change, not every step)."""
         scene = self.scene
         state = scene.state
-        fights = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("grapple"))
-        key = (fights, state.version, id(state))
+
+        def fights() -> tuple[int, ...]:  # the grapple goals' ids (made again when a goal is given or ends)
+            return tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("grapple"))
+
+        key = (self.scratch.keyed("fights", scene.goals.changes, fights), state.version, id(state))
         self.attacked_by, self.fighter_rows, attacked = self.scratch.keyed("attacked", key, self._attacked)
         return [(e, self.world.component_for_entity(e, Mind)) for e in attacked]
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import methodcaller
 
 import numpy as np
 from numba import njit
@@ -78,6 +79,7 @@ from twig_ecs.systems.behaviours.embrace import (  # (importing it registers the
     embrace_arms,
     glide_hand,
     holding_hands,
+    hug_goal_ids,
     lower_hands,
     mutual_hug,
 )
@@ -335,6 +337,9 @@ _GOAL_ROW = {
 #: The walk-up's steering gains: approach's (the same field and figures as ``steer_to``).
 
 
+_LED = methodcaller("get", "led")  # a hug goal's memory: it answered a mutual hug
+
+
 @register
 class Hug(Behavior):
     """Hug a character: both arms round its torso, hands on its back."""
@@ -363,7 +368,7 @@ class Hug(Behavior):
         done per character instead (:meth:`_act_each`), which says what went wrong."""
         if goals is None:
             goals = [self.world.component_for_entity(e, Mind).goal for e in entities]
-        if any(goal is None for goal in goals):
+        if not all(goals):  # (a goal is always true)
             live = [k for k, goal in enumerate(goals) if goal is not None]
             rows, entities = [rows[k] for k in live], [entities[k] for k in live]
             goals = [goals[k] for k in live]
@@ -372,10 +377,11 @@ class Hug(Behavior):
         scene = self.scene
         state = scene.state
         table = self._goal_table()
-        hugs = tuple(mind.goals[0].id for _, mind in scene.goal_holders_of("hug"))
-        table.sync([goal.id for goal in goals], (hugs, state.version, id(state)),
+        hugs = hug_goal_ids(scene, self.scratch)
+        ids = [goal.id for goal in goals]
+        table.sync(ids, (hugs, state.version, id(state)),
                    lambda i, _: self._goal_row(rows[i], entities[i], goals[i]))  # fmt: skip
-        if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt):
+        if table.missing or not self._act_over_arrays(rows, entities, goals, table, dt, ids):
             self._act_each(rows, entities, goals, dt)
 
     def _act_each(self, rows: list[int], entities: list[int], goals: list, dt: float) -> None:
@@ -434,13 +440,18 @@ class Hug(Behavior):
         return table
 
     def _act_over_arrays(self, rows: list[int], entities: list[int], goals: list, table: RowTable,
-                         dt: float) -> bool:  # fmt: skip
+                         dt: float, ids: list[int]) -> bool:  # fmt: skip
         """:meth:`_act_each`'s work with the walk-up over arrays (every goal has its row in
-        ``table``, in order); False, having changed nothing, when a rare event wants the
-        per-character path."""
+        ``table``, in order; ``ids``: the goals' ids); False, having changed nothing, when a rare
+        event wants the per-character path."""
         scene = self.scene
-        phases = [goal.memory.get("phase", "approach") for goal in goals]
-        answers = table["answers"]
+        memories = [goal.memory for goal in goals]
+        phases = [memory.get("phase", "approach") for memory in memories]
+        if "approach" not in phases and not table["answers"].any() and not any(map(_LED, memories)):
+            # every one wraps or holds, none answering (a long hug's usual step)
+            self._wrap_and_hold(list(zip(rows, entities, goals, strict=True)), dt, (ids, memories, phases))
+            return True
+        answers = table["answers"].tolist()
         walking = [k for k, phase in enumerate(phases) if phase == "approach"]
         close, answering, done = [], [], []
         for k, phase in enumerate(phases):
@@ -729,22 +740,30 @@ class Hug(Behavior):
             table = self.scratch["close"] = RowTable(**_HUG_ROW)
         return table
 
-    def _wrap_and_hold(self, close: list, dt: float) -> None:
+    def _wrap_and_hold(self, close: list, dt: float, known: tuple | None = None) -> None:
+        """Wrap the arms round and hold, for the huggers ``close`` (row, entity, goal); ``known``:
+        their goals' ids, memories and phases, where the caller has them."""
         scene = self.scene
         state = scene.state
         ch = state.characters
         table = self._table()
-        table.sync([goal.id for _, _, goal in close], (state.version, id(state)),
-                   lambda i, _: self._setup(*close[i]))  # fmt: skip
+        crow_list, _, goals = zip(*close, strict=True)
+        ids, memories, phases = known if known is not None else ([goal.id for goal in goals], None, None)
+        table.sync(ids, (state.version, id(state)), lambda i, _: self._setup(*close[i]))
         if table.missing:  # those whose partner has gone have failed: left out
             close = [close[i] for i in table.positions]
             if not close:
                 return
-        crows = np.array([row for row, _, _ in close], dtype=np.int64)
+            crow_list, _, goals = zip(*close, strict=True)
+            memories = phases = None
+        if memories is None:
+            memories = [goal.memory for goal in goals]
+            phases = [memory["phase"] for memory in memories]
+        crows = np.array(crow_list, dtype=np.int64)
         partners = table["partner"]
         ch.gaze_node[crows] = ch.nodes[partners, HEAD]  # look at the partner's head
         ch.gaze_mode[crows] = GAZE_NODE
-        phase = np.array([PHASES[goal.memory["phase"]] for _, _, goal in close], dtype=np.int64)
+        phase = np.array([PHASES[name] for name in phases], dtype=np.int64)
         on_back = np.empty(len(close), dtype=np.int64)
         asks = np.empty(len(close), dtype=np.int64)
         stoop_at = np.empty((len(close), 3))
@@ -755,7 +774,7 @@ class Hug(Behavior):
                  table["surface"], table["gap_links"], table["gap_links_start"], table["gap_links_count"],
                  _ROUNDS, dt, on_back, stoop_at, asks)  # fmt: skip
         now = scene.time
-        since = np.array([goal.memory["since"] for _, _, goal in close])
+        since = np.array([memory["since"] for memory in memories])
         ending = (phase == WRAP) & ((on_back == 2) | (now - since > WRAP_TIME))
         ending |= (phase == HOLD) & (now - since >= table["duration"])
         for k in np.flatnonzero(ending | (asks != 0)):

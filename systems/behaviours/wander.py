@@ -59,10 +59,24 @@ class WanderBehavior(Behavior):
     batch = True
 
     def run(self, ctx: StepContext) -> None:
-        """Propose ``activation`` for every autonomous wandering character."""
-        for _, (_, mind, wander) in ctx.world.get_components(Character, Mind, Wander):
-            if mind.autonomous:
-                mind.activations["wander"] = wander.activation
+        """Propose ``activation`` for every autonomous wandering character (as lists: selected
+        over arrays)."""
+        items = ctx.world.get_components(Character, Mind, Wander)
+        autonomous = [mind.autonomous for _, (_, mind, _) in items]
+        kept = self.scratch.get("wanderers")  # the wanderers' entities and minds, kept while the same
+        if kept is None or kept[0] is not items or kept[1] != autonomous:
+            picked = [(e, mind, w) for (e, (_, mind, w)), ok in zip(items, autonomous, strict=True) if ok]
+            entities, minds, wanders = ([p[k] for p in picked] for k in range(3))
+            kept = self.scratch["wanderers"] = (items, autonomous, entities, minds, wanders)
+        _, _, entities, minds, wanders = kept
+        if not entities:
+            return
+        values = np.array([wander.activation for wander in wanders], dtype=np.float64)
+        if not np.isfinite(values).all():  # (an activation of no size: into the dicts, as it was)
+            for mind, value in zip(minds, values.tolist(), strict=True):
+                mind.activations[self.name] = value
+            return
+        self.propose_all(ctx.frame, entities, minds, values)
 
     def setup(self) -> None:
         """Its table of wanderers (state: a snapshot keeps it)."""
