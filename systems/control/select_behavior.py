@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from twig_ecs.behavior import Behavior
 from twig_ecs.components import Character
 from twig_ecs.mind import BehaviorChanged, Mind
 from twig_ecs.step import StepContext
@@ -89,11 +88,12 @@ class SelectBehaviorSystem(System):
         """This step's proposals made as lists (:meth:`~twig_ecs.behavior.Behavior.propose_all`),
         taken from the behaviours, in the order they were made: (order, name, entities, minds, value)."""
         listed = []
-        for system in self.scene.schedule.systems():  # (every behaviour, also one under another's name)
-            if isinstance(system, Behavior):
-                made = system.scratch.pop("proposed", None)
-                if made is not None and made[0] == frame:
-                    listed.extend(made[1])
+        # (every behaviour, also one under another's name; only behaviours file "proposed" in
+        # their scratch: control does not import the behaviour layer above it)
+        for system in self.scene.schedule.systems():
+            made = system.scratch.pop("proposed", None)
+            if made is not None and made[0] == frame:
+                listed.extend(made[1])
         listed.sort(key=lambda call: call[0])
         return listed
 
