@@ -158,13 +158,16 @@ def _save_import_index() -> None:
     known = index["known"]
     if len(known) > IMPORT_INDEX_KEEP:
         known = {k: v for k, v in known.items() if k in index["used"]}
+    written = None
     try:
         with tempfile.NamedTemporaryFile("w", dir=_folder, suffix=".tmp", delete=False) as f:
+            written = f.name
             json.dump(known, f)
-        os.replace(f.name, _folder / IMPORT_INDEX)
+        os.replace(written, _folder / IMPORT_INDEX)
         index["dirty"] = False
     except OSError:
-        pass
+        if written is not None:  # (a full disk: no half-written file left behind)
+            Path(written).unlink(missing_ok=True)
 
 
 #: Our modules that kernel modules import but that cannot change what a compiled kernel
@@ -287,11 +290,18 @@ def _prune(base: Path, current: Path) -> None:
     Several checkouts or venvs of different versions may share the cache folder and run at
     once; a version still in use (its folder touched at each start) is never deleted.
     """
+    _delete_unused(current, base.glob("kernels-*"), KEEP_OLD, STALE_DAYS * 86400)
+
+
+def _delete_unused(current: Path, folders, keep: int, unused_for: float) -> None:
+    """Touch ``current`` (in use now) and delete the other ``folders`` past the newest
+    ``keep`` that were last used over ``unused_for`` seconds ago."""
     try:
-        os.utime(current)  # in use now
-        cutoff = time.time() - STALE_DAYS * 86400
-        old = sorted((p for p in base.glob("kernels-*") if p != current), key=lambda p: p.stat().st_mtime)
-        for path in old[:-KEEP_OLD] if len(old) > KEEP_OLD else []:
+        if current.is_dir():
+            os.utime(current)
+        cutoff = time.time() - unused_for
+        old = sorted((p for p in folders if p != current), key=lambda p: p.stat().st_mtime)
+        for path in old[:-keep] if len(old) > keep else []:
             if path.stat().st_mtime < cutoff:
                 shutil.rmtree(path, ignore_errors=True)
     except OSError:
@@ -508,14 +518,4 @@ def _prune_module(where: str, current: Path) -> None:
     environments. Every edit of a kernel module's sources compiles a new version: a
     developer's folder kept them all (1270 module folders, 643 MB on the project's box after a
     week; hours, not days, as a week of edits is hundreds of versions)."""
-    try:
-        if current.is_dir():
-            os.utime(current)
-        cutoff = time.time() - STALE_MODULE_HOURS * 3600
-        others = [p for p in _module_folders().get(where, []) if p != current]
-        old = sorted(others, key=lambda p: p.stat().st_mtime)
-        for path in old[:-KEEP_OLD_MODULE] if len(old) > KEEP_OLD_MODULE else []:
-            if path.stat().st_mtime < cutoff:
-                shutil.rmtree(path, ignore_errors=True)
-    except OSError:
-        pass
+    _delete_unused(current, _module_folders().get(where, []), KEEP_OLD_MODULE, STALE_MODULE_HOURS * 3600)
