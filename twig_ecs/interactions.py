@@ -44,7 +44,7 @@ import numpy as np
 from twig_ecs.components import Character
 from twig_ecs.store import LINK_COLLIDE, LINK_GRAB, LINK_OFF, LINK_ROPE, NODE_LOCKED, NODE_SPHERE
 from twig_ecs.systems.behaviours.hug import hands_on_back
-from twig_ecs.systems.behaviours.play import yard_of
+from twig_ecs.systems.behaviours.play import fences_of, yard_of
 from twig_ecs.systems.physics.collide import capsule_gaps
 
 SPEED_UP = 0.4  # m/s gained in one step by a ball: a kick (rolling and bouncing lose speed)
@@ -515,12 +515,7 @@ class InteractionRecorder:
 
 
 def _fence_top(scene) -> float:
-    """Height (m) of the lowest top among the yard's static bodies wider than 2 m (the fences
-    :func:`~twig_ecs.systems.behaviours.play.yard_of` boxes)."""
-    st = scene.state
-    n = st.nodes.count
-    body, flags, pos = st.nodes.body[:n], st.nodes.flags[:n], st.nodes.pos[:n]
-    free = np.bincount(body, (flags & NODE_LOCKED) == 0, st.bodies.count)
-    tops = [float(pos[body == b][:, 1].max()) for b in np.flatnonzero(free == 0)
-            if np.ptp(pos[body == b][:, [0, 2]], axis=0).max() > 2.0]  # fmt: skip
+    """Height (m) of the lowest top among the yard's fences
+    (:func:`~twig_ecs.systems.behaviours.play.fences_of`)."""
+    tops = [float(rows[:, 1].max()) for rows in fences_of(scene)]
     return min(tops) if tops else math.inf

@@ -151,22 +151,28 @@ def deck_clearance(decks, start: np.ndarray, end: np.ndarray) -> float:
     return worst
 
 
-def yard_of(scene) -> tuple[np.ndarray, np.ndarray] | None:
-    """The (x, z) low and high corners of the fenced yard: the box round every static
-    body wider than 2 m (fences, walls; all nodes locked), or None without fences."""
+def fences_of(scene) -> list[np.ndarray]:
+    """The node positions (rows of x, y, z) of every static body wider than 2 m: fences,
+    walls (all nodes locked)."""
     st = scene.state
     n = st.nodes.count
     body, flags, pos = st.nodes.body[:n], st.nodes.flags[:n], st.nodes.pos[:n]
     free = np.bincount(body, (flags & NODE_LOCKED) == 0, st.bodies.count)
-    static = np.flatnonzero(free == 0)
-    points = []
-    for b in static:
-        rows = pos[body == b][:, [0, 2]]
-        if np.ptp(rows, axis=0).max() > 2.0:
-            points.append(rows)
-    if not points:
+    fences = []
+    for b in np.flatnonzero(free == 0):
+        rows = pos[body == b]
+        if np.ptp(rows[:, [0, 2]], axis=0).max() > 2.0:
+            fences.append(rows)
+    return fences
+
+
+def yard_of(scene) -> tuple[np.ndarray, np.ndarray] | None:
+    """The (x, z) low and high corners of the fenced yard: the box round every fence
+    (:func:`fences_of`), or None without fences."""
+    fences = fences_of(scene)
+    if not fences:
         return None
-    every = np.concatenate(points)
+    every = np.concatenate(fences)[:, [0, 2]]
     return every.min(axis=0), every.max(axis=0)
 
 
@@ -191,6 +197,12 @@ class Play(Behavior):
         attachment = self.world.try_component(character.entity, Attachment)
         anxiety = attachment.anxiety if attachment is not None else 0.0
         return playful.joy * (1.0 - 0.5 * anxiety)
+
+    def _yard(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The fenced yard's corners, or None (looked up once: fences do not move)."""
+        if self.yard is False:
+            self.yard = yard_of(self.scene)
+        return self.yard
 
     def _decks(self) -> list[tuple[np.ndarray, float]]:
         """The scene's turning decks (looked up once: their axles do not move)."""
@@ -259,11 +271,10 @@ class Play(Behavior):
 
     def _room_behind(self, toy_at: np.ndarray, aim: np.ndarray, scale: float) -> bool:
         """Whether the spot a kick along ``aim`` is made from lies inside the yard (no yard: yes)."""
-        if self.yard is False:
-            self.yard = yard_of(self.scene)
-        if not self.yard:
+        yard = self._yard()
+        if yard is None:
             return True
-        lo, hi = self.yard
+        lo, hi = yard
         spot = (toy_at - aim * BEHIND * scale)[[0, 2]]
         return bool(np.all(spot >= lo + FENCE_ROOM * scale) and np.all(spot <= hi - FENCE_ROOM * scale))
 
@@ -293,8 +304,7 @@ class Play(Behavior):
         """A place drawn at random: inside the yard, or near where the toy started; for a
         child tied to a caregiver, near the caregiver (a kick sends the ball 10-20 m, and
         a child sent after it that far soon runs home instead of playing)."""
-        if self.yard is False:
-            self.yard = yard_of(self.scene)
+        yard = self._yard()
         rng = self.scene.rng
         attachment = self.world.try_component(kicker.entity, Attachment)
         if attachment is not None and self.scene.has_entity(attachment.caregiver):
@@ -304,15 +314,15 @@ class Play(Behavior):
                 (attachment.safe_distance + NEAR_HOME) * np.sqrt(rng.uniform()),
             )
             x, z = home[0] + r * np.cos(angle), home[2] + r * np.sin(angle)
-            if self.yard is not None:
-                lo, hi = self.yard
+            if yard is not None:
+                lo, hi = yard
                 x, z = (
                     np.clip(x, lo[0] + YARD_MARGIN, hi[0] - YARD_MARGIN),
                     np.clip(z, lo[1] + YARD_MARGIN, hi[1] - YARD_MARGIN),
                 )
             return np.array([x, 0.0, z])
-        if self.yard is not None:
-            lo, hi = self.yard
+        if yard is not None:
+            lo, hi = yard
             lo, hi = lo + YARD_MARGIN, np.maximum(hi - YARD_MARGIN, lo + YARD_MARGIN)
             x, z = rng.uniform(lo[0], hi[0]), rng.uniform(lo[1], hi[1])
         else:
@@ -375,11 +385,12 @@ class Play(Behavior):
         # the line through it
         side = 1.0 if foot == "r_foot" else -1.0
         spot = ball - aim * BEHIND * scale + left * side * 0.1 * scale
-        if self.yard:
+        yard = self._yard()
+        if yard is not None:
             # a toy by the fence: the spot behind it may be beyond the fence; kick along
             # the fence instead (the aim with its part across the fence dropped), and
             # stand inside
-            lo, hi = self.yard
+            lo, hi = yard
             inside = np.clip(spot[[0, 2]], lo + FENCE_ROOM * scale, hi - FENCE_ROOM * scale)
             if np.any(inside != spot[[0, 2]]):
                 along = aim.copy()
