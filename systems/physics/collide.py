@@ -514,9 +514,12 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
         # the one way left open (seed 0's ball left a fence corner at 14 m/s and rose 7 m)
         kick_i = ball_j and ((flags[a] | flags[b]) & NODE_KICK) != 0 and (flags[c] & NODE_PINNED) == 0
         kick_j = ball_i and ((flags[c] | flags[d]) & NODE_KICK) != 0 and (flags[a] & NODE_PINNED) == 0
-        if ball_i and (flags[c] & flags[d] & NODE_LOCKED) != 0:
+        # a loose ball against a fixed body (every node of the other capsule locked)
+        fixed_i = ball_i and (flags[c] & flags[d] & NODE_LOCKED) != 0
+        fixed_j = ball_j and (flags[a] & flags[b] & NODE_LOCKED) != 0
+        if fixed_i:
             flags[a] |= NODE_PINNED
-        if ball_j and (flags[a] & flags[b] & NODE_LOCKED) != 0:
+        if fixed_j:
             flags[c] |= NODE_PINNED
         if kick_i:
             wa = 0.0 if flags[a] & NODE_KICK else wa
@@ -585,9 +588,9 @@ def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, r
                     # a loose ball off a fixed body: its next step starts with part of the
                     # closing speed turned back along the normal (the pass moves it out of the
                     # body, which ends the closing part; its old position moved back gives the rest)
-                    if ball_i and (flags[c] & flags[d] & NODE_LOCKED) != 0:
+                    if fixed_i:
                         nudge(prev, a, -BALL_BOUNCE * closing * dt, nx, ny, nz)
-                    elif ball_j and (flags[a] & flags[b] & NODE_LOCKED) != 0:
+                    elif fixed_j:
                         nudge(prev, c, BALL_BOUNCE * closing * dt, nx, ny, nz)
         # resolve at most half the thinner radius per pass: a limb found deep inside
         # another (fast motion, crossed segments with an unreliable normal) is eased
