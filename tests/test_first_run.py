@@ -710,3 +710,17 @@ def test_a_compile_in_this_process_raises_the_collectors_thresholds_until_it_end
         event.unregister("numba:compile", watch)
     assert seen and seen[0] == COMPILE_GC_THRESHOLD
     assert gc.get_threshold() == before, "put back when the compile ended"
+
+
+@pytest.mark.parametrize("numba_first", [False, True])
+def test_numba_words_its_compile_errors_without_terminal_colours(numba_first):
+    # typing a kernel words an error message for every candidate signature that does not fit;
+    # coloured, each message started and stopped colorama's terminal wrapper (100 000 times in a
+    # schoolyard compile): a fifth of a first run's compile, for messages nobody reads
+    imports = ["import numba.core.errors as errors", "import twig_ecs.kernelmath"]
+    worded = "print(repr(errors.termcolor().errmsg('x') + errors.termcolor().code('y')))"
+    probe = "; ".join([*(imports if numba_first else imports[::-1]), worded])
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"}
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == repr("xy")  # no escape codes round either part

@@ -49,7 +49,7 @@ RUN_STEP_GAIN, RUN_STEP_POWER = 0.88, 0.5
 MAX_STEP_PERIOD = 2.6
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def walk_speed(speed, leg, g):
     """The pace a body with legs ``leg`` m long takes when asked for ``speed``: capped at the
     run's Froude limit (the one place the top speed per body size is decided)."""
@@ -62,7 +62,7 @@ def walk_speed(speed, leg, g):
 WALK_SHARE, RUN_SHARE, RUN_BLEND = 0.8, 1.2, 0.15
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def run_share(speed, leg, g):
     """How much of a run a pace of ``speed`` (already capped) is: 0 walking, 1 running,
     blended over RUN_BLEND of Froude number round the transition (the flight, the run's
@@ -71,14 +71,14 @@ def run_share(speed, leg, g):
     return min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def swing_share(speed, leg, g):
     """How long a foot is in the air per step period at a pace of ``speed`` (already capped):
     under 1 it walks (a double support), over 1 it runs (a flight)."""
     return WALK_SHARE + (RUN_SHARE - WALK_SHARE) * run_share(speed, leg, g)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def step_length(speed, leg, g):
     """Step length (m) at a pace of ``speed`` (already capped) for legs ``leg`` m long."""
     fr = speed * speed / (g * leg)

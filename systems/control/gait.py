@@ -131,7 +131,7 @@ class GaitColumns(NamedTuple):
     stand_height: np.ndarray
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def step_timing(speed, leg, g):
     """(pace, step length, step period, a foot's time in the air) when asked for ``speed``.
 
@@ -152,13 +152,13 @@ def step_timing(speed, leg, g):
     return v, step, period, swing_share(v, leg, g) * period
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def swinging(flags, move_time, i):
     """Is foot node ``i`` flying a step's or a kick's arc (kinematic, its move not over)?"""
     return move_time[i] > 0.0 and flags[i] & NODE_MOVING and not flags[i] & NODE_LOCKED
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def heel_room(y, radius, legs):
     """How much higher (m) a planted foot at height ``y`` may lift its heel: a trailing foot in
     double support rises on its toes up to HEEL_RISE leg lengths above the ground (a
@@ -188,7 +188,7 @@ def knee_between(hx, hy, hz, fx, fy, fz, thigh, shin, bx, bz):
     return hx + a * ax + b * px, hy + a * ay + b * py, hz + a * az + b * pz, True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def leg_parts(pos, h, kn, i):
     """(thigh, shin) lengths (m) of the leg hip ``h``, knee ``kn``, foot ``i`` as it is now."""
     thigh = math.sqrt((pos[kn, 0] - pos[h, 0]) ** 2 + (pos[kn, 1] - pos[h, 1]) ** 2

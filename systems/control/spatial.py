@@ -64,7 +64,7 @@ GRID_BITS = 16
 MAX_CELLS = 16
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _ground_bucket(x, z, cell, mask):
     """The hash bucket of the ground cell holding (x, z); a lost (non-finite) node goes in bucket 0."""
     if not (math.isfinite(x) and math.isfinite(z)):
@@ -94,7 +94,7 @@ def ground_grid(pos, n, cell, start, entries):
         fill[h] += 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def disc_buckets(x, z, radius, cell, mask, buckets):
     """The grid's buckets that the disc of ``radius`` round (x, z) touches, each once, into
     ``buckets`` (``MAX_CELLS`` long); returns how many, or 0 when the disc spans more cells

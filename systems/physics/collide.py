@@ -365,7 +365,7 @@ def closest_segment_params(p1, q1, p2, q2):
 # The contact passes call this, not closest_segment_params: a row of pos handed to a call is a
 # new array view, and each (with its reference counting) cost more than the arithmetic - the
 # hugging crowd's collide step 14.4 -> 8.5 ms with the rows read here instead (same bits).
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def closest_rows(pos, a, b, c, d):
     """:func:`closest_segment_params` of the segments from node rows ``a``-``b`` and ``c``-``d``."""
     d1x = pos[b, 0] - pos[a, 0]
@@ -378,7 +378,7 @@ def closest_rows(pos, a, b, c, d):
                            pos[a, 2] - pos[c, 2])  # fmt: skip
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, rx, ry, rz):
     """(s, t) of :func:`closest_segment_params` from the segments' directions d1, d2 and the
     offset r = p1 - p2 of their starts."""
@@ -820,7 +820,8 @@ def solve_collisions(contacts, pairs, n_pairs, iterations, dt, constraints, held
         j = near[k, 1]
         if flags[col_a[i]] & flags[col_b[i]] & flags[col_a[j]] & flags[col_b[j]] & NODE_LOCKED:
             continue  # two fixed things (fence panels meeting at a post) overlap by design
-        depth = col_r[i] + col_r[j] - math.sqrt(segment_gap2(pos, col_a[i], col_b[i], col_a[j], col_b[j]))
+        gap2 = segment_gap2(pos, row(col_a[i]), row(col_b[i]), row(col_a[j]), row(col_b[j]))  # (one type)
+        depth = col_r[i] + col_r[j] - math.sqrt(gap2)
         if depth > worst:
             worst = depth
     return worst

@@ -236,7 +236,7 @@ def _chunks(body: np.ndarray, cross: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return chunks, np.array(groups, dtype=np.int64)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always")  # (trivial to inline; called with int32 and int64 rows)
 def row(i):
     """A node row read from an index column, as an unsigned integer: numba then indexes with
     it directly, without the test for a negative index (from the end) it makes for a signed one
@@ -244,7 +244,7 @@ def row(i):
     return np.uint64(i)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def node_weight(inv_mass, flags, i):
     """Inverse mass of node i as constraints see it (0 while locked or on a ballistic move)."""
     f = flags[i]
@@ -253,7 +253,7 @@ def node_weight(inv_mass, flags, i):
     return inv_mass[i]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def line_offset(pos, a, b, p):
     """Where node p lies relative to the line from node a to node b.
 
@@ -275,7 +275,7 @@ def line_offset(pos, a, b, p):
     return an, ax, ay, az, along, vx - along * ax, vy - along * ay, vz - along * az
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def nudge(pos, i, f, dx, dy, dz):
     """Move node i by f times (dx, dy, dz)."""
     pos[i, 0] += f * dx
@@ -283,7 +283,7 @@ def nudge(pos, i, f, dx, dy, dz):
     pos[i, 2] += f * dz
 
 
-@njit(cache=True, inline="always")  # (in both the serial and the threaded pass: compiled once each)
+@njit(cache=True)  # (called by both the serial and the threaded pass: compiled once for both)
 def project_link_rows(nodes, links, order, start, end):
     """One pass over the link rows ``order[start:end]``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
     pj += wj (...) o. Ropes are only pulled back when longer than their length.
@@ -357,8 +357,8 @@ def settle_shape(nodes, links, held, passes):
             for k in range(l0, l1):
                 if links.flags[k] & (LINK_OFF | LINK_GRAB):
                     continue
-                i = links.a[k]
-                j = links.b[k]
+                i = row(links.a[k])  # (one type for nudge: its only compile)
+                j = row(links.b[k])
                 wi = 0.0 if flags[i] & (NODE_LOCKED | NODE_MOVING) else 1.0
                 wj = 0.0 if flags[j] & (NODE_LOCKED | NODE_MOVING) else 1.0
                 if wi + wj == 0.0:
@@ -398,13 +398,13 @@ REVERSED = 0.15
 FOLDED = 0.25
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _angle_gap(a, b):
     """Unsigned angle (rad) between two directions given as angles."""
     return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     """Share of a stop's move (dx, dy, dz) of mid node m that must not become velocity.
 
@@ -422,7 +422,7 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     return 1.0 - min(dn, approach) / dn
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def project_limit_rows(nodes, limits, gripped, start, end):
     """One pass over hinge limits (knees, elbows) ``start``..``end``.
 
@@ -652,7 +652,8 @@ def project_axles(nodes, axles):
         a = axle_a[i]
         if a < 0 or flags[i] & NODE_LOCKED:
             continue
-        _, ax, ay, az, _, px, py, pz = line_offset(pos, a, axle_b[i], i)
+        # rows as the limits pass passes them (unsigned): line_offset compiles for one type
+        _, ax, ay, az, _, px, py, pz = line_offset(pos, row(a), row(axle_b[i]), row(i))
         plen = math.sqrt(px * px + py * py + pz * pz)
         if plen < 1e-9:
             continue
