@@ -193,3 +193,16 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log):
             return scope_of(nodeid) or super()._split_scope(nodeid)
 
     return SharedRunScheduling(config, log)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: one worker more than the cores this process may use.
+
+    A fifth of the suite's tests wait on wall-clock time (windows drawing at 4-5 frames a
+    second, servers stepping in real time, a hug answered over the socket), and while one
+    worker waits a core sits idle; a third worker on this 2-core box fills it (the suite
+    124 -> 114 s, the same CPU seconds).
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return cores + 1
