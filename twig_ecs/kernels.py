@@ -57,9 +57,7 @@ from twig_ecs.kernelcache import (  # noqa: F401 - the cache's public names, her
 _PACKAGE = kernelcache._PACKAGE
 
 #: What a :class:`KernelBuild` worker process runs.
-_WORKER_CODE = (
-    "import sys, json; from twig_ecs.kernelworker import work; sys.exit(work(json.loads(sys.argv[1])))"
-)
+_WORKER_CODE = "import sys, json; from twig_ecs.kernelworker import run; run(json.loads(sys.argv[1]))"
 _checked = False
 
 
