@@ -724,3 +724,60 @@ def test_numba_words_its_compile_errors_without_terminal_colours(numba_first):
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == repr("xy")  # no escape codes round either part
+
+
+def test_no_code_of_ours_calls_a_kernel_helper_from_python():
+    # a helper is compiled without Python's entry point (kernelmath.kernel_helper): called from
+    # Python it runs as plain Python, correct but a hundred times slower - a silent slowdown
+    # for whoever calls one from a system's Python code. Only kernels may call them.
+    import ast
+
+    from twig_ecs.kernelcache import kernel_dirs
+    from twig_ecs.kernelmath import HelperKernel
+
+    kernels._import_kernel_modules()
+    helpers = {k.py_func.__name__ for k in _all_dispatchers() if isinstance(k, HelperKernel)}
+    assert {"relax_once", "closest_rows", "project_by_body", "step_length"} <= helpers
+
+    def compiled(function: ast.FunctionDef) -> bool:
+        return any(
+            ("njit" in ast.unparse(d)) or ("kernel_helper" in ast.unparse(d)) for d in function.decorator_list
+        )
+
+    calls = []
+    sources = [
+        p for folder in {*kernel_dirs(), Path(kernels.__file__).parent} for p in Path(folder).rglob("*.py")
+    ]
+    for path in sources:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        inside = {
+            id(n)
+            for f in ast.walk(tree)
+            if isinstance(f, ast.FunctionDef) and compiled(f)
+            for n in ast.walk(f)
+        }
+        for node in ast.walk(tree):
+            name = (
+                node.id
+                if isinstance(node, ast.Name)
+                else node.attr
+                if isinstance(node, ast.Attribute)
+                else None
+            )
+            if (
+                name in helpers
+                and id(node) not in inside
+                and isinstance(getattr(node, "ctx", None), ast.Load)
+            ):
+                calls.append(f"{path.name}:{node.lineno} {name}")
+    assert calls == []
+
+
+def _all_dispatchers() -> list:
+    """Every numba dispatcher of ours, from the kernel modules' namespaces."""
+    import importlib
+
+    from twig_ecs.kernelcache import kernel_modules
+
+    modules = [importlib.import_module(name) for name in ["twig_ecs.kernelmath", *kernel_modules()]]
+    return [value for module in modules for value in vars(module).values() if kernels._ours(value)]

@@ -17,6 +17,43 @@ from twig_ecs.kernelcache import configure_cache
 configure_cache()  # our cache locator first: numba binds a kernel's cache when it is decorated
 
 from numba import njit  # noqa: E402
+from numba.core.registry import CPUDispatcher  # noqa: E402
+
+from twig_ecs.kernelcache import jit_disabled  # noqa: E402
+
+
+class HelperKernel(CPUDispatcher):
+    """A kernel compiled only for other kernels to call (:func:`kernel_helper`); called from
+    Python, it runs as plain Python."""
+
+    def __call__(self, *args, **kwargs):
+        # compiled without Python's entry point: numba's would jump to a null address
+        return self.py_func(*args, **kwargs)
+
+
+def kernel_helper(function=None, **options):
+    """``@kernel_helper`` (or ``@kernel_helper(nogil=True, ...)``): ``@njit(cache=True)`` for a
+    kernel that only other kernels call.
+
+    Numba gives every compiled kernel an entry point for Python - code that unboxes each
+    argument from a Python object and boxes the result - lowered and optimised by LLVM with
+    the kernel. The 46 helpers' entry points were a tenth of a first run's compile (2.4 s of
+    CPU in one process); a helper is compiled without one. Called from Python (a test, a
+    debugger) it runs as plain Python, its ``py_func``: the same arithmetic, slower.
+    ``tests/test_first_run.py`` checks that no code of ours calls one from Python.
+    """
+
+    def decorate(py_func):
+        if jit_disabled():
+            return py_func
+        kernel = HelperKernel(
+            py_func, targetoptions={"nopython": True, "no_cpython_wrapper": True, **options}
+        )
+        kernel.enable_caching()
+        return kernel
+
+    return decorate(function) if function is not None else decorate
+
 
 PELVIS, SPINE, NECK, HEAD, L_HIP, R_HIP, L_KNEE, R_KNEE = 0, 1, 2, 3, 4, 5, 6, 7
 L_FOOT, R_FOOT, L_SHOULDER, R_SHOULDER, L_ELBOW, R_ELBOW, L_HAND, R_HAND = 8, 9, 10, 11, 12, 13, 14, 15
@@ -49,7 +86,7 @@ RUN_STEP_GAIN, RUN_STEP_POWER = 0.88, 0.5
 MAX_STEP_PERIOD = 2.6
 
 
-@njit(cache=True)
+@kernel_helper
 def walk_speed(speed, leg, g):
     """The pace a body with legs ``leg`` m long takes when asked for ``speed``: capped at the
     run's Froude limit (the one place the top speed per body size is decided)."""
@@ -62,7 +99,7 @@ def walk_speed(speed, leg, g):
 WALK_SHARE, RUN_SHARE, RUN_BLEND = 0.8, 1.2, 0.15
 
 
-@njit(cache=True)
+@kernel_helper
 def run_share(speed, leg, g):
     """How much of a run a pace of ``speed`` (already capped) is: 0 walking, 1 running,
     blended over RUN_BLEND of Froude number round the transition (the flight, the run's
@@ -71,14 +108,14 @@ def run_share(speed, leg, g):
     return min(1.0, max(0.0, (fr - (WALK_FROUDE_MAX - 0.5 * RUN_BLEND)) / RUN_BLEND))
 
 
-@njit(cache=True)
+@kernel_helper
 def swing_share(speed, leg, g):
     """How long a foot is in the air per step period at a pace of ``speed`` (already capped):
     under 1 it walks (a double support), over 1 it runs (a flight)."""
     return WALK_SHARE + (RUN_SHARE - WALK_SHARE) * run_share(speed, leg, g)
 
 
-@njit(cache=True)
+@kernel_helper
 def step_length(speed, leg, g):
     """Step length (m) at a pace of ``speed`` (already capped) for legs ``leg`` m long."""
     fr = speed * speed / (g * leg)
@@ -94,7 +131,7 @@ def step_length(speed, leg, g):
     return walk + (run - walk) * k
 
 
-@njit(cache=True)
+@kernel_helper
 def forward_xz(pos, left, right):
     """Unit ground-plane forward of a left/right node pair: (left - right) x up."""
     lx = pos[left, 0] - pos[right, 0]
@@ -105,7 +142,7 @@ def forward_xz(pos, left, right):
     return -lz / n, lx / n
 
 
-@njit(cache=True)
+@kernel_helper
 def yaw_error(fx, fz, dx, dz):
     """Signed angle (rad) turning ground direction f onto d about +y (+: towards +x from +z)."""
     return math.atan2(fz * dx - fx * dz, fx * dx + fz * dz)

@@ -32,6 +32,7 @@ from twig_ecs.kernelmath import (
     WAVE,
     clamp,
     forward_xz,
+    kernel_helper,
 )
 from twig_ecs.step import StepContext
 from twig_ecs.system import System
@@ -43,7 +44,7 @@ WAVE_HZ = 1.6
 MAX_ACC = 120.0
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def unfold(pos, prev, s, e, w):
     """Keep the elbow of shoulder ``s``, elbow ``e``, hand ``w`` from folding past ELBOW_MOST.
 

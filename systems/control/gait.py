@@ -39,6 +39,7 @@ from twig_ecs.kernelmath import (
     WALK_FROUDE_MAX,
     clamp,
     forward_xz,
+    kernel_helper,
     run_share,
     step_length,
     swing_share,
@@ -131,7 +132,7 @@ class GaitColumns(NamedTuple):
     stand_height: np.ndarray
 
 
-@njit(cache=True)
+@kernel_helper
 def step_timing(speed, leg, g):
     """(pace, step length, step period, a foot's time in the air) when asked for ``speed``.
 
@@ -152,13 +153,13 @@ def step_timing(speed, leg, g):
     return v, step, period, swing_share(v, leg, g) * period
 
 
-@njit(cache=True)
+@kernel_helper
 def swinging(flags, move_time, i):
     """Is foot node ``i`` flying a step's or a kick's arc (kinematic, its move not over)?"""
     return move_time[i] > 0.0 and flags[i] & NODE_MOVING and not flags[i] & NODE_LOCKED
 
 
-@njit(cache=True)
+@kernel_helper
 def heel_room(y, radius, legs):
     """How much higher (m) a planted foot at height ``y`` may lift its heel: a trailing foot in
     double support rises on its toes up to HEEL_RISE leg lengths above the ground (a
@@ -167,7 +168,7 @@ def heel_room(y, radius, legs):
 
 
 # fmt: off
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def knee_between(hx, hy, hz, fx, fy, fz, thigh, shin, bx, bz):
     """Where a knee joins a ``thigh`` and a ``shin`` (m) from a hip at (hx, hy, hz) to a foot at
     (fx, fy, fz), bent towards the ground direction (``bx``, ``bz``): (x, y, z, ok) - ``ok``
@@ -188,7 +189,7 @@ def knee_between(hx, hy, hz, fx, fy, fz, thigh, shin, bx, bz):
     return hx + a * ax + b * px, hy + a * ay + b * py, hz + a * az + b * pz, True
 
 
-@njit(cache=True)
+@kernel_helper
 def leg_parts(pos, h, kn, i):
     """(thigh, shin) lengths (m) of the leg hip ``h``, knee ``kn``, foot ``i`` as it is now."""
     thigh = math.sqrt((pos[kn, 0] - pos[h, 0]) ** 2 + (pos[kn, 1] - pos[h, 1]) ** 2
@@ -198,7 +199,7 @@ def leg_parts(pos, h, kn, i):
     return thigh, shin
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
     """Move knee node ``kn`` part of the way (PUSH_FOLD) to where a ``thigh`` and a ``shin`` join
     hip ``h`` to foot ``i``, bent forwards (``bx``, ``bz``: the body's forward); its velocity is
@@ -214,7 +215,7 @@ def bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz):
         pos[kn, q] += move
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def lead_knee(pos, prev, h, kn, i, bx, bz, most):
     """A foot setting off: give knee node ``kn`` the velocity that keeps it where thigh and shin
     join the hip and the foot next frame (bent forwards, ``bx``, ``bz``), so a straight leg folds
@@ -236,7 +237,7 @@ def lead_knee(pos, prev, h, kn, i, bx, bz, most):
         prev[kn, 2] = 2.0 * pos[kn, 2] - (cz + ez)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, progress, fold):
     """A walk's double support: a planted foot behind its hip comes up on its toes - as far as
     it must (and a little more, HEEL_SLACK) for the hip to go on along the leading leg's arc
@@ -290,7 +291,7 @@ def lift_heels(pos, prev, lock_pos, flags, radius, nd, legs, dx, dz, next_foot, 
             bend_knee(pos, prev, h, kn, i, thigh, shin, bx, bz)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, walking, dt):
     """A planted foot up on its toes comes down again (HEEL_DROP) unless the walk's double
     support keeps it up: standing still, and once the walk stops, both heels are down."""
@@ -309,7 +310,7 @@ def lower_heels(pos, prev, lock_pos, flags, radius, nd, legs, walking, dt):
         prev[i, 1] = y
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t_left, dt):
     """Where a gait step of foot ``f`` should come down (x, z), ``t_left`` s before it lands.
 
@@ -345,7 +346,7 @@ def landing_target(pos, prev, nd, f, o_planted, dx, dz, moving, v, step, legs, t
     return tx, tz
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o, tx, tz, k_arc, legs, fastest,
                gravity, dt):
     """In-flight guidance of a swinging foot (a step's or a kick's), once a frame.
@@ -386,7 +387,7 @@ def guide_foot(pos, prev, acc, flags, move_time, move_gravity, radius, nd, f, o,
                 prev[i, q] += k * e
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def aim_foot(pos, prev, move_time, radius, nd, f, o, i, aim, tx, tz, k_arc, legs, fastest, gravity, dt):
     """Set a flying foot's velocity (through ``prev``) to land in reach (see guide_foot)."""
     h = nd[L_HIP + f]

@@ -23,6 +23,7 @@ from twig_ecs.kernelmath import (
     R_SHOULDER,
     clamp,
     forward_xz,
+    kernel_helper,
     yaw_error,
 )
 from twig_ecs.step import StepContext
@@ -33,7 +34,7 @@ MAX_YAW = math.radians(75.0)  # from the shoulders
 MAX_PITCH = math.radians(60.0)
 
 
-@njit(cache=True)
+@kernel_helper
 def _turn_towards(direction, c, want_x, want_y, want_z, most, ox, oy, oz):
     """Turn unit vector ``direction[c]`` towards the unit (want_x, want_y, want_z) by at most
     ``most`` radians; one exactly opposite turns to (ox, oy, oz) instead."""

@@ -54,6 +54,7 @@ from twig_ecs.kernelmath import (
     WALK_FROUDE_MAX,
     clamp,
     forward_xz,
+    kernel_helper,
     run_share,
     walk_speed,
     yaw_error,
@@ -162,7 +163,7 @@ class PostureColumns(NamedTuple):
 
 
 # fmt: off
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
     """(pelvis height, its rate of change, the carrying leg's direction from foot to hip x, y,
     z) at which the planted legs, straight, hold the hips:
@@ -192,7 +193,7 @@ def carried_height(pos, flags, radius, nd, legs, vpx, vpz, wx, wz, walking):
     return top, rate, ux, uy, uz
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def sink_speed(pos, flags, nd, legs):
     """How fast (m/s) a standing pelvis may go down: no faster than folds the straighter planted
     leg's knee forwards at KNEE_SINK m/s (a leg of two halves ``legs`` long: near straight, the

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from twig_ecs.kernelmath import kernel_helper
 from twig_ecs.store import LINK_COLLIDE, NODE_LOCKED
 from twig_ecs.systems.physics.collide import cell_hash
 
@@ -64,7 +65,7 @@ GRID_BITS = 16
 MAX_CELLS = 16
 
 
-@njit(cache=True)
+@kernel_helper
 def _ground_bucket(x, z, cell, mask):
     """The hash bucket of the ground cell holding (x, z); a lost (non-finite) node goes in bucket 0."""
     if not (math.isfinite(x) and math.isfinite(z)):
@@ -94,7 +95,7 @@ def ground_grid(pos, n, cell, start, entries):
         fill[h] += 1
 
 
-@njit(cache=True)
+@kernel_helper
 def disc_buckets(x, z, radius, cell, mask, buckets):
     """The grid's buckets that the disc of ``radius`` round (x, z) touches, each once, into
     ``buckets`` (``MAX_CELLS`` long); returns how many, or 0 when the disc spans more cells

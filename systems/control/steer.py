@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic, overload
 
-from twig_ecs.kernelmath import SIT, approach_field
+from twig_ecs.kernelmath import SIT, approach_field, kernel_helper
 from twig_ecs.steering import SteeringParams
 from twig_ecs.systems.control.spatial import STEER_CELL, STEP_OVER, SpatialIndex, nearest_obstacle_nodes
 
@@ -189,7 +189,7 @@ def _fused_multiply_add_compiled(a, b, c):
     return lambda a, b, c: _fma(a, b, c)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def _skipped(skip, n_skip, b):
     for s in range(n_skip):
         if skip[s] == b:

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from twig_ecs.kernelmath import kernel_helper
 from twig_ecs.step import StepContext
 from twig_ecs.store import (
     NODE_CARRIED,
@@ -365,7 +366,7 @@ def closest_segment_params(p1, q1, p2, q2):
 # The contact passes call this, not closest_segment_params: a row of pos handed to a call is a
 # new array view, and each (with its reference counting) cost more than the arithmetic - the
 # hugging crowd's collide step 14.4 -> 8.5 ms with the rows read here instead (same bits).
-@njit(cache=True)
+@kernel_helper
 def closest_rows(pos, a, b, c, d):
     """:func:`closest_segment_params` of the segments from node rows ``a``-``b`` and ``c``-``d``."""
     d1x = pos[b, 0] - pos[a, 0]
@@ -378,7 +379,7 @@ def closest_rows(pos, a, b, c, d):
                            pos[a, 2] - pos[c, 2])  # fmt: skip
 
 
-@njit(cache=True)
+@kernel_helper
 def _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, rx, ry, rz):
     """(s, t) of :func:`closest_segment_params` from the segments' directions d1, d2 and the
     offset r = p1 - p2 of their starts."""
@@ -450,7 +451,7 @@ def _segments_apart(pos, a, b, c, d, gap):
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def resolve_contacts(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, record, dt):
     """One pass over candidate pairs: separate penetrating capsules along the normal.
 
@@ -756,7 +757,7 @@ def repick_moved(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near,
     return n
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def contact_pass(nodes: NodeColumns, cols: ContactColumns, pairs, n_pairs, near, n_near, watch, record, dt):
     """:func:`resolve_contacts` over the pairs :func:`repick_moved` keeps near: it does exactly
     what a pass over every candidate would. Returns how many it visited."""

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from twig_ecs.kernelmath import clamp
+from twig_ecs.kernelmath import clamp, kernel_helper
 from twig_ecs.step import StepContext
 from twig_ecs.store import (
     LINK_GRAB,
@@ -244,7 +244,7 @@ def row(i):
     return np.uint64(i)
 
 
-@njit(cache=True)
+@kernel_helper
 def node_weight(inv_mass, flags, i):
     """Inverse mass of node i as constraints see it (0 while locked or on a ballistic move)."""
     f = flags[i]
@@ -253,7 +253,7 @@ def node_weight(inv_mass, flags, i):
     return inv_mass[i]
 
 
-@njit(cache=True)
+@kernel_helper
 def line_offset(pos, a, b, p):
     """Where node p lies relative to the line from node a to node b.
 
@@ -275,7 +275,7 @@ def line_offset(pos, a, b, p):
     return an, ax, ay, az, along, vx - along * ax, vy - along * ay, vz - along * az
 
 
-@njit(cache=True)
+@kernel_helper
 def nudge(pos, i, f, dx, dy, dz):
     """Move node i by f times (dx, dy, dz)."""
     pos[i, 0] += f * dx
@@ -283,7 +283,7 @@ def nudge(pos, i, f, dx, dy, dz):
     pos[i, 2] += f * dz
 
 
-@njit(cache=True)  # (called by both the serial and the threaded pass: compiled once for both)
+@kernel_helper  # (called by both the serial and the threaded pass: compiled once for both)
 def project_link_rows(nodes, links, order, start, end):
     """One pass over the link rows ``order[start:end]``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
     pj += wj (...) o. Ropes are only pulled back when longer than their length.
@@ -316,7 +316,7 @@ def project_link_rows(nodes, links, order, start, end):
         pos[j, 2] += wj * f * oz
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def project_links(nodes, links, order):
     """One pass over all links, in ``order`` (:func:`project_link_rows`)."""
     project_link_rows(nodes, links, order, 0, links.count)
@@ -326,7 +326,7 @@ def project_links(nodes, links, order):
 SETTLE_PASSES = 80
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def settle_shape(nodes, links, held, passes):
     """Restore the shape of each thing a hand holds: ``passes`` passes over its own links.
 
@@ -398,13 +398,13 @@ REVERSED = 0.15
 FOLDED = 0.25
 
 
-@njit(cache=True)
+@kernel_helper
 def _angle_gap(a, b):
     """Unsigned angle (rad) between two directions given as angles."""
     return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
 
 
-@njit(cache=True)
+@kernel_helper
 def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     """Share of a stop's move (dx, dy, dz) of mid node m that must not become velocity.
 
@@ -422,7 +422,7 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     return 1.0 - min(dn, approach) / dn
 
 
-@njit(cache=True)
+@kernel_helper
 def project_limit_rows(nodes, limits, gripped, start, end):
     """One pass over hinge limits (knees, elbows) ``start``..``end``.
 
@@ -589,7 +589,7 @@ def project_limit_rows(nodes, limits, gripped, start, end):
             nudge(prev, t, -ft * lag, dx, dy, dz)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def project_limits(nodes, limits, gripped):
     """One pass over all hinge limits (:func:`project_limit_rows`)."""
     project_limit_rows(nodes, limits, gripped, 0, limits.count)
@@ -597,7 +597,7 @@ def project_limits(nodes, limits, gripped):
 
 # A call, not inlined: numba analyses a threaded loop's body statement by statement, and with
 # the rows inlined project_by_body took 11.9 s of a first run's 41 s of compiling (now 3.3 s).
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_order):
     """Chunk ``q`` of a :class:`BodyPlan`: its link (``of_links``) or limit rows."""
     if of_links:
@@ -606,7 +606,7 @@ def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_orde
         project_limit_rows(nodes, limits, gripped, chunks[q, 0], chunks[q, 1])
 
 
-@njit(cache=True, parallel=True, nogil=True)
+@kernel_helper(parallel=True, nogil=True)
 def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links, link_order):
     """One pass over the link (``of_links``) or limit rows of a :class:`BodyPlan`: each run's
     chunks at once, across threads, the runs one after the other."""
@@ -619,7 +619,7 @@ def project_by_body(nodes, links, limits, gripped, chunks, groups, of_links, lin
             _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_order)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def links_pass(c):
     """One pass over every link of the :class:`Constraints` ``c`` (split by body when planned).
     (``bool(True)``, not ``True``: numba compiles a literal as another specialisation.)"""
@@ -631,7 +631,7 @@ def links_pass(c):
         project_links(c.nodes, c.links, plan.link_order)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def limits_pass(c):
     """One pass over every joint limit of ``c`` (split by body when planned)."""
     plan = c.plan
@@ -642,7 +642,7 @@ def limits_pass(c):
         project_limits(c.nodes, c.limits, c.gripped)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def project_axles(nodes, axles):
     """Keep axle-mounted nodes on their circle: fixed height along and distance from the axle."""
     pos, flags = nodes.pos, nodes.flags
@@ -691,7 +691,7 @@ def project_ground(nodes):
                     lock_pos[i, k] = pos[i, k]
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def lift_out_of_ground(nodes):
     """Every free node more than GROUND_SLOP in the ground up onto it: the last word of a step
     (the collide system's; the passes after the last ground pass may push nodes in).
@@ -707,7 +707,7 @@ def lift_out_of_ground(nodes):
             prev[i, 1] = max(prev[i, 1], r)
 
 
-@njit(cache=True, nogil=True)
+@kernel_helper(nogil=True)
 def relax_once(c):
     """One relaxation pass over the :class:`Constraints` ``c``: limits, axles, the ground, then
     links (and grab joints)."""
