@@ -737,7 +737,7 @@ def test_no_code_of_ours_calls_a_kernel_helper_from_python():
 
     kernels._import_kernel_modules()
     helpers = {k.py_func.__name__ for k in _all_dispatchers() if isinstance(k, HelperKernel)}
-    assert {"relax_once", "closest_rows", "project_by_body", "step_length"} <= helpers
+    assert {"relax_once", "aim_foot", "project_by_body", "step_length"} <= helpers
 
     def compiled(function: ast.FunctionDef) -> bool:
         return any(

@@ -366,7 +366,7 @@ def closest_segment_params(p1, q1, p2, q2):
 # The contact passes call this, not closest_segment_params: a row of pos handed to a call is a
 # new array view, and each (with its reference counting) cost more than the arithmetic - the
 # hugging crowd's collide step 14.4 -> 8.5 ms with the rows read here instead (same bits).
-@kernel_helper
+@njit(cache=True, inline="always")
 def closest_rows(pos, a, b, c, d):
     """:func:`closest_segment_params` of the segments from node rows ``a``-``b`` and ``c``-``d``."""
     d1x = pos[b, 0] - pos[a, 0]
@@ -379,7 +379,7 @@ def closest_rows(pos, a, b, c, d):
                            pos[a, 2] - pos[c, 2])  # fmt: skip
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def _closest_params(d1x, d1y, d1z, d2x, d2y, d2z, rx, ry, rz):
     """(s, t) of :func:`closest_segment_params` from the segments' directions d1, d2 and the
     offset r = p1 - p2 of their starts."""

@@ -244,7 +244,7 @@ def row(i):
     return np.uint64(i)
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def node_weight(inv_mass, flags, i):
     """Inverse mass of node i as constraints see it (0 while locked or on a ballistic move)."""
     f = flags[i]
@@ -253,7 +253,7 @@ def node_weight(inv_mass, flags, i):
     return inv_mass[i]
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def line_offset(pos, a, b, p):
     """Where node p lies relative to the line from node a to node b.
 
@@ -275,7 +275,7 @@ def line_offset(pos, a, b, p):
     return an, ax, ay, az, along, vx - along * ax, vy - along * ay, vz - along * az
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def nudge(pos, i, f, dx, dy, dz):
     """Move node i by f times (dx, dy, dz)."""
     pos[i, 0] += f * dx
@@ -283,7 +283,7 @@ def nudge(pos, i, f, dx, dy, dz):
     pos[i, 2] += f * dz
 
 
-@kernel_helper  # (called by both the serial and the threaded pass: compiled once for both)
+@njit(cache=True, inline="always")  # (in both the serial and the threaded pass: compiled once each)
 def project_link_rows(nodes, links, order, start, end):
     """One pass over the link rows ``order[start:end]``: pi -= wi (|o|-d)/(|o| (wi+wj)) o,
     pj += wj (...) o. Ropes are only pulled back when longer than their length.
@@ -357,7 +357,7 @@ def settle_shape(nodes, links, held, passes):
             for k in range(l0, l1):
                 if links.flags[k] & (LINK_OFF | LINK_GRAB):
                     continue
-                i = row(links.a[k])  # (one type for nudge: its only compile)
+                i = row(links.a[k])  # (unsigned rows, as the passes index)
                 j = row(links.b[k])
                 wi = 0.0 if flags[i] & (NODE_LOCKED | NODE_MOVING) else 1.0
                 wj = 0.0 if flags[j] & (NODE_LOCKED | NODE_MOVING) else 1.0
@@ -398,13 +398,13 @@ REVERSED = 0.15
 FOLDED = 0.25
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def _angle_gap(a, b):
     """Unsigned angle (rad) between two directions given as angles."""
     return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     """Share of a stop's move (dx, dy, dz) of mid node m that must not become velocity.
 
@@ -422,7 +422,7 @@ def stop_lag(pos, prev, m, r, t, alpha, dx, dy, dz):
     return 1.0 - min(dn, approach) / dn
 
 
-@kernel_helper
+@njit(cache=True, inline="always")
 def project_limit_rows(nodes, limits, gripped, start, end):
     """One pass over hinge limits (knees, elbows) ``start``..``end``.
 
@@ -652,7 +652,7 @@ def project_axles(nodes, axles):
         a = axle_a[i]
         if a < 0 or flags[i] & NODE_LOCKED:
             continue
-        # rows as the limits pass passes them (unsigned): line_offset compiles for one type
+        # unsigned rows, as the limits pass passes them
         _, ax, ay, az, _, px, py, pz = line_offset(pos, row(a), row(axle_b[i]), row(i))
         plen = math.sqrt(px * px + py * py + pz * pz)
         if plen < 1e-9:
