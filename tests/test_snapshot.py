@@ -293,6 +293,16 @@ def _hostile(scene, change) -> bytes:
     return scene.snapshot()
 
 
+def _system(scene, kind: str):
+    """The scene's system of class ``kind``."""
+    return next(s for s in scene.schedule.systems() if type(s).__name__ == kind)
+
+
+def _rename(obj, old: str, new: str) -> None:
+    """Rename one of ``obj``'s attributes, as a changed byte in a file's key would."""
+    vars(obj)[new] = vars(obj).pop(old)
+
+
 def _body_outside(scene) -> None:
     from twig_ecs.components import Body
 
@@ -315,6 +325,8 @@ def _body_outside(scene) -> None:
         # found by the snapshot fuzzer: a scene without its behaviours stepped into an AttributeError
         (lambda s: delattr(s, "behaviors"), "its scene has no 'behaviors'"),
         (lambda s: setattr(s, "goals", {}), "its scene's 'goals' is a dict, not a GoalBook"),
+        # found by the snapshot fuzzer (seed 551750221): a system's 'scene' key became 'sxene'
+        (lambda s: _rename(_system(s, "Carry"), "scene", "sxene"), "its Carry system is not the scene's"),
     ],
     ids=[
         "link-node",
@@ -326,6 +338,7 @@ def _body_outside(scene) -> None:
         "body-rows",
         "no-behaviours",
         "goals-swapped",
+        "system-scene-renamed",
     ],  # fmt: skip
 )
 def test_a_snapshot_whose_rows_point_outside_the_store_is_refused(scenes, change, says):

@@ -274,6 +274,7 @@ def restore(data: bytes):
     scene._reopen()  # noqa: SLF001 - the snapshot is the scene's own serialiser
     try:
         _check_scene_parts(scene)
+        _check_systems(scene)
         check_store(scene.state)
         check_world(scene.world)
         _check_components(scene.world, scene.state)
@@ -313,6 +314,14 @@ def _check_scene_parts(scene) -> None:
             raise ValueError(f"its scene has no '{name}'")
         if not isinstance(held[name], kind):
             raise ValueError(f"its scene's '{name}' is a {type(held[name]).__name__}, not a {kind.__name__}")
+
+
+def _check_systems(scene) -> None:
+    """Each decoded system is the scene's (ValueError naming the first that is not): found by
+    the snapshot fuzzer, a system whose ``scene`` key was renamed stepped into an AttributeError."""
+    for system in scene.schedule.systems():
+        if vars(system).get("scene") is not scene:
+            raise ValueError(f"its {type(system).__name__} system is not the scene's")
 
 
 def _check_components(world: World, state) -> None:
