@@ -99,7 +99,13 @@ def test_at_4_fps_the_lag_shows_and_a_recording_plays_at_simulated_speed(display
 
 @pytest.fixture
 def busy_core():
-    """One CPU-bound process beside the test, as on a user's busy machine."""
+    """One CPU-bound process beside the test, as on a user's busy machine - unless the machine
+    is busy already (the suite's own workers keep every core running): there it only took CPU
+    from the other tests."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if os.getloadavg()[0] >= cores:
+        yield
+        return
     spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     yield
     spin.kill()
