@@ -15,6 +15,7 @@ from yard_run import SEED, YARD_ID, YardRun, run_the_yard, scope_of
 
 from twig_ecs import Scene, Settings, kernels
 from twig_ecs.scene import open_scenes
+from twig_ecs.threads import usable_cpus
 
 # The tests start many Python processes (the CLI, servers, fresh-process probes). Where the
 # environment says PYTHONDONTWRITEBYTECODE (some containers and CI images do), each of them
@@ -202,7 +203,6 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     A fifth of the suite's tests wait on wall-clock time (windows drawing at 4-5 frames a
     second, servers stepping in real time, a hug answered over the socket), and while one
     worker waits a core sits idle; a third worker on this 2-core box fills it (the suite
-    124 -> 114 s, the same CPU seconds).
+    124 -> 108-109 s, the same CPU seconds).
     """
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return cores + 1
+    return usable_cpus() + 1

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import pytest
 
+from twig_ecs.threads import usable_cpus
+
 HERE = Path(__file__).resolve().parent
 
 
@@ -102,8 +104,7 @@ def busy_core():
     """One CPU-bound process beside the test, as on a user's busy machine - unless the machine
     is busy already (the suite's own workers keep every core running): there it only took CPU
     from the other tests."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if os.getloadavg()[0] >= cores:
+    if os.getloadavg()[0] >= usable_cpus():
         yield
         return
     spin = subprocess.Popen([sys.executable, "-c", "while True: pass"])

@@ -273,7 +273,7 @@ PLAIN_ERRORS = "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"
 
 
 def _plain_compile_errors() -> None:
-    """Have numba write its compile errors without terminal colours: a third of the first compile's
+    """Have numba write its compile errors without terminal colours: a fifth of the first compile's
     time went on colouring messages nobody reads.
 
     Typing a kernel tries many candidate signatures, and numba words an error message for each

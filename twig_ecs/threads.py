@@ -80,15 +80,19 @@ def configure_threads() -> dict[str, str]:
     return chosen
 
 
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity where the system keeps one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # (not on macOS or Windows)
+        return os.cpu_count() or 1
+
+
 def usable_threads() -> int:
     """numba's threads, but no more than the CPUs this process may run on."""
     import numba  # (here: this module is imported before numba's cache is configured)
 
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # (not on macOS or Windows)
-        cpus = os.cpu_count() or 1
-    return max(1, min(numba.config.NUMBA_NUM_THREADS, cpus))
+    return max(1, min(numba.config.NUMBA_NUM_THREADS, usable_cpus()))
 
 
 def fixed_threads(value: str | None = None) -> int | None:
