@@ -263,14 +263,14 @@ def test_the_near_pairs_follow_moving_nodes_and_never_leave_out_a_touching_pair(
         near_pairs,
         repick_moved,
     )
-    from twig_ecs.systems.physics.constrain import constraints_of, named_constraints
+    from twig_ecs.systems.physics.constrain import NodeColumns, constraints_of
 
     with hugging_pairs(40) as scene:
         scene.run(4.0)
         collide = next(s for s in scene.schedule.systems() if isinstance(s, CollideSystem))
         n = collide.broad_phase()
         st = scene.state
-        nodes = named_constraints(constraints_of(st)).nodes
+        nodes = NodeColumns(*constraints_of(st)[0])
         cols = ContactColumns(*contacts_of(st))
         pos, col = st.nodes.pos, st.colliders
         near = np.empty((n, 2), dtype=st.pairs.dtype)
