@@ -611,7 +611,7 @@ def _project_chunk(nodes, links, limits, gripped, chunks, q, of_links, link_orde
 
 
 #: Of numba's parallel passes, only the explicit loop (``prange``): the others look for array
-#: expressions and comprehensions to run in parallel, and project_by_body has none. A third of
+#: expressions and comprehensions to run in parallel, and project_by_body has none. Over a quarter of
 #: its own compile (1.4 -> 1.0 s of CPU); the threaded loop is the same.
 _PRANGE_ONLY = {"prange": True, "comprehension": False, "reduction": False, "inplace_binop": False,
                 "setitem": False, "numpy": False, "stencil": False, "fusion": False}  # fmt: skip
