@@ -10,7 +10,7 @@ kernel:
 - ``llvm``: the seconds LLVM spent on its library (optimisation passes and machine code;
   numba's ``NUMBA_LLVM_PASS_TIMINGS``, which this script turns on). Numba links the optimised
   code of each kernel it calls into its library and works on it again there, so this can
-  exceed ``own``;
+  exceed ``own``. Counted for our kernels only (0 for numba's own);
 - ``kind``: ``helper`` for a :func:`~twig_ecs.kernelmath.kernel_helper` (no entry point for
   Python), ``kernel`` for one Python calls, ``numba`` for numba's own implementations
   (``np.empty``'s, say), compiled once per signature like ours.

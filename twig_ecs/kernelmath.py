@@ -37,7 +37,7 @@ def kernel_helper(function=None, **options):
 
     Numba gives every compiled kernel an entry point for Python - code that unboxes each
     argument from a Python object and boxes the result - lowered and optimised by LLVM with
-    the kernel. The 37 helpers' entry points were about a tenth of a first run's compile
+    the kernel. When the first 37 helpers lost theirs, a first run's compile lost about a tenth
     (about 2 s of CPU in one process); a helper is compiled without one. Called from Python (a test, a
     debugger) it runs as plain Python, its ``py_func``: the same arithmetic, slower.
     ``tests/test_first_run.py`` checks that no code of ours calls one from Python.
