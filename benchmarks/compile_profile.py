@@ -15,7 +15,8 @@ kernel:
   Python), ``kernel`` for one Python calls, ``numba`` for numba's own implementations
   (``np.empty``'s, say), compiled once per signature like ours.
 
-Then the LLVM time split by stage and kind, and the process's CPU seconds. What numba spends
+Then the LLVM time split by stage and kind, numba's own time by compiler pass (``native_lowering``
+includes LLVM's work on the kernel's library), and the process's CPU seconds. What numba spends
 outside LLVM is its type inference and lowering to LLVM IR. The CPU seconds move with the
 machine's speed; compare two commits in turns (a worktree of each), not with a figure from
 another day::
@@ -71,9 +72,28 @@ def main() -> None:
             if stack:
                 inside[stack[-1][0]] += seconds
 
+    passes: Counter = Counter()  # each compiler pass's seconds, less the compiles nested in it
+    running: list[list] = []  # [pass, its start, nested seconds]
+
+    class PassTimer(event.Listener):
+        """Times numba's compiler passes (a pass that types a call compiles the callee inside it)."""
+
+        def on_start(self, ev) -> None:
+            running.append([ev.data["name"].split(" [")[0], time.perf_counter(), 0.0])
+
+        def on_end(self, ev) -> None:
+            name, began, nested = running.pop()
+            seconds = time.perf_counter() - began
+            passes[name] += seconds - nested
+            if running:
+                running[-1][2] += seconds
+
     kernels.announce_no_compile()
     cpu = time.process_time()
-    with event.install_listener("numba:compile", Timer()):
+    with (
+        event.install_listener("numba:compile", Timer()),
+        event.install_listener("numba:run_pass", PassTimer()),
+    ):
         scene = Scene.load(args.scene)
         scene.step(1)
     cpu = time.process_time() - cpu
@@ -97,6 +117,10 @@ def main() -> None:
     print(f"\nLLVM, {sum(stages.values()):.1f} s in all:")
     for (stage, kind), seconds in sorted(stages.items()):
         print(f"  {stage:52s} {kind:6s} {seconds:6.2f}")
+    print(f"\nnumba's passes, {sum(passes.values()):.1f} s in all (those over 0.1 s):")
+    for name, seconds in passes.most_common():
+        if seconds >= 0.1:
+            print(f"  {name:59s} {seconds:6.2f}")
 
 
 if __name__ == "__main__":
