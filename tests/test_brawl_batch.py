@@ -297,3 +297,24 @@ def test_a_fight_or_two_goes_a_character_at_a_time_and_more_over_arrays(monkeypa
             scene.entity(f"p{k}").grapple(f"p{k + 1}", duration=30.0)
         scene.run(0.2)
         assert sizes and set(sizes) == {grapple.ARRAYS_FROM}
+
+
+def test_a_lone_defender_squares_up_a_character_at_a_time_and_two_over_arrays(monkeypatch):
+    # as the grapple: for one defender the arrays cost twice the per-character form
+    sizes = []
+    over_arrays = fight.act_defences
+
+    def counted(*args):
+        sizes.append(len(args[4]))  # the defenders it was given
+        return over_arrays(*args)
+
+    monkeypatch.setattr(fight, "act_defences", counted)
+    with Scene.load("empty") as scene:
+        for k in range(4):
+            scene.spawn("humanoid", name=f"p{k}", position=(3.0 * k, 0.0, 0.0), character=True)
+        scene.entity("p0").grapple("p1", duration=30.0)
+        scene.run(1.5)
+        assert sizes == [] and scene.entity("p1").behaviour == "defend", "the one attacked squares up"
+        scene.entity("p2").grapple("p3", duration=30.0)
+        scene.run(1.5)
+        assert sizes and max(sizes) == fight.ARRAYS_FROM
