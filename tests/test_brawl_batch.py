@@ -269,21 +269,34 @@ def test_a_grapple_at_someone_removed_fails_and_the_other_fights_go_on():
         assert "fighting" in goals[2].memory and "blow" in goals[2].memory, "g2 closed in and fights"
 
 
+def _calls_counted(monkeypatch, module, name: str, sizes_at: int) -> list[int]:
+    """Put a counter on ``module.name`` (an array pass); returns the list that gets each call's
+    count of characters (the length of its argument ``sizes_at``)."""
+    sizes = []
+    over_arrays = getattr(module, name)
+
+    def counted(*args):
+        sizes.append(len(args[sizes_at]))
+        return over_arrays(*args)
+
+    monkeypatch.setattr(module, name, counted)
+    return sizes
+
+
+def _lined_up(count: int) -> Scene:
+    """An empty scene with characters p0, p1, ... 3 m apart along x."""
+    scene = Scene.load("empty")
+    for k in range(count):
+        scene.spawn("humanoid", name=f"p{k}", position=(3.0 * k, 0.0, 0.0), character=True)
+    return scene
+
+
 def test_a_fight_or_two_goes_a_character_at_a_time_and_more_over_arrays(monkeypatch):
     # the pass over arrays costs about the same for one grappler as for a hundred (0.4 ms a
     # step): the schoolyard's one or two fights go through the per-character form, which
     # writes the same (the tests above); from ARRAYS_FROM on, the arrays
-    sizes = []
-    over_arrays = grapple.act_grapples
-
-    def counted(*args):
-        sizes.append(len(args[3]))  # the grapplers it was given
-        return over_arrays(*args)
-
-    monkeypatch.setattr(grapple, "act_grapples", counted)
-    with Scene.load("empty") as scene:
-        for k in range(2 * grapple.ARRAYS_FROM):
-            scene.spawn("humanoid", name=f"p{k}", position=(3.0 * k, 0.0, 0.0), character=True)
+    sizes = _calls_counted(monkeypatch, grapple, "act_grapples", 3)  # (its goals)
+    with _lined_up(2 * grapple.ARRAYS_FROM) as scene:
         first = [scene.entity(f"p{k}").grapple(f"p{k + 1}", duration=30.0) for k in (0, 2)]
 
         def gap() -> float:
@@ -301,17 +314,8 @@ def test_a_fight_or_two_goes_a_character_at_a_time_and_more_over_arrays(monkeypa
 
 def test_a_lone_defender_squares_up_a_character_at_a_time_and_two_over_arrays(monkeypatch):
     # as the grapple: for one defender the arrays cost twice the per-character form
-    sizes = []
-    over_arrays = fight.act_defences
-
-    def counted(*args):
-        sizes.append(len(args[4]))  # the defenders it was given
-        return over_arrays(*args)
-
-    monkeypatch.setattr(fight, "act_defences", counted)
-    with Scene.load("empty") as scene:
-        for k in range(4):
-            scene.spawn("humanoid", name=f"p{k}", position=(3.0 * k, 0.0, 0.0), character=True)
+    sizes = _calls_counted(monkeypatch, fight, "act_defences", 4)  # (its entities)
+    with _lined_up(4) as scene:
         scene.entity("p0").grapple("p1", duration=30.0)
         scene.run(1.5)
         assert sizes == [] and scene.entity("p1").behaviour == "defend", "the one attacked squares up"
