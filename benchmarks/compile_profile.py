@@ -49,50 +49,55 @@ def main() -> None:
     from twig_ecs.kernelmath import HelperKernel
     from twig_ecs.scene import Scene
 
-    totals: Counter = Counter()
-    inside: Counter = Counter()  # seconds of the kernels compiled inside each one
-    kinds: dict[str, str] = {}
-    stack: list[tuple[str, float]] = []
+    class NestedTimes(event.Listener):
+        """Seconds of numba's events by ``key(event)``: ``totals``, and ``inside``, those of the
+        events nested in each (a compile types a call and compiles the callee within it; a
+        compiler pass of one kernel holds the compiles of those it calls)."""
 
-    class Timer(event.Listener):
-        """Times each compile, and charges it to the compile it happened inside."""
+        def __init__(self, key) -> None:
+            self.key = key
+            self.totals: Counter = Counter()
+            self.inside: Counter = Counter()
+            self._open: list[tuple[str, float]] = []
 
         def on_start(self, ev) -> None:
-            stack.append((ev.data["dispatcher"].py_func.__qualname__, time.perf_counter()))
+            self._open.append((self.key(ev), time.perf_counter()))
 
         def on_end(self, ev) -> None:
-            name, began = stack.pop()
+            name, began = self._open.pop()
             seconds = time.perf_counter() - began
-            totals[name] += seconds
+            self.totals[name] += seconds
+            if self._open:
+                self.inside[self._open[-1][0]] += seconds
+            self.ended(ev, name)
+
+        def ended(self, ev, name: str) -> None:
+            """Called after each event with its key (nothing here)."""
+
+        def own(self) -> dict[str, float]:
+            """Each key's seconds less those nested in it."""
+            return {name: self.totals[name] - self.inside[name] for name in self.totals}
+
+    kinds: dict[str, str] = {}
+
+    class Compiles(NestedTimes):
+        """Times each kernel's compile, and notes what kind of kernel it was."""
+
+        def ended(self, ev, name: str) -> None:
             dispatcher = ev.data["dispatcher"]
             if isinstance(dispatcher, HelperKernel):
                 kinds[name] = "helper"
             else:
                 kinds[name] = "kernel" if dispatcher.py_func.__module__.startswith("twig_ecs") else "numba"
-            if stack:
-                inside[stack[-1][0]] += seconds
 
-    passes: Counter = Counter()  # each compiler pass's seconds, less the compiles nested in it
-    running: list[list] = []  # [pass, its start, nested seconds]
-
-    class PassTimer(event.Listener):
-        """Times numba's compiler passes (a pass that types a call compiles the callee inside it)."""
-
-        def on_start(self, ev) -> None:
-            running.append([ev.data["name"].split(" [")[0], time.perf_counter(), 0.0])
-
-        def on_end(self, ev) -> None:
-            name, began, nested = running.pop()
-            seconds = time.perf_counter() - began
-            passes[name] += seconds - nested
-            if running:
-                running[-1][2] += seconds
+    compiles = Compiles(lambda ev: ev.data["dispatcher"].py_func.__qualname__)
+    passes = NestedTimes(lambda ev: ev.data["name"].split(" [")[0])  # (less the kernel's name)
 
     kernels.announce_no_compile()
     cpu = time.process_time()
     with (
-        event.install_listener("numba:compile", Timer()),
-        event.install_listener("numba:run_pass", PassTimer()),
+        event.install_listener("numba:compile", compiles),
+        event.install_listener("numba:run_pass", passes),
     ):
         scene = Scene.load(args.scene)
         scene.step(1)
@@ -109,7 +114,7 @@ def main() -> None:
                 stage = "function passes" if record.name.startswith("Function passes") else record.name
                 stages[(stage, kinds.get(name, "kernel"))] += seconds
 
-    own = {name: totals[name] - inside[name] for name in totals}
+    totals, own = compiles.totals, compiles.own()
     print(f"{args.scene}: {len(totals)} kernels compiled, {cpu:.1f} s of CPU in all\n")
     print(f"{'kernel':28s} {'kind':6s} {'total':>7s} {'own':>7s} {'llvm':>7s}")
     for name in sorted(own, key=own.get, reverse=True)[: args.top]:
@@ -117,8 +122,9 @@ def main() -> None:
     print(f"\nLLVM, {sum(stages.values()):.1f} s in all:")
     for (stage, kind), seconds in sorted(stages.items()):
         print(f"  {stage:52s} {kind:6s} {seconds:6.2f}")
-    print(f"\nnumba's passes, {sum(passes.values()):.1f} s in all (those over 0.1 s):")
-    for name, seconds in passes.most_common():
+    by_pass = Counter(passes.own())
+    print(f"\nnumba's passes, {sum(by_pass.values()):.1f} s in all (those over 0.1 s):")
+    for name, seconds in by_pass.most_common():
         if seconds >= 0.1:
             print(f"  {name:59s} {seconds:6.2f}")
 
