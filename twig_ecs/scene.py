@@ -36,7 +36,15 @@ from twig_ecs.kernels import ensure_compiled
 from twig_ecs.library import ContentLibrary
 from twig_ecs.names import EntityNames
 from twig_ecs.plugins import Plugin, default_plugins
-from twig_ecs.scenefile import EntitySpec, ScenePlan, Settings, read_entity, read_scene
+from twig_ecs.scenefile import (
+    EntitySpec,
+    ScenePlan,
+    Settings,
+    read_behaviors,
+    read_entity,
+    read_perception,
+    read_scene,
+)
 from twig_ecs.schedule import Schedule
 from twig_ecs.spawn import spawn_body
 from twig_ecs.step import StepContext
@@ -168,11 +176,6 @@ class Scene:
                     ) from None
             for spec in plan.entities:
                 scene._spawn_spec(spec)
-                for behavior in spec.behaviors:
-                    scene.world.add_component(scene.names.entity(spec.name), behavior.component)
-                if spec.perception is not None:
-                    scene.world.add_component(scene.names.entity(spec.name), spec.perception)
-                    scene.world.add_component(scene.names.entity(spec.name), Memory())
             for i, spec in enumerate(plan.entities):  # starting commands may name later entities
                 if spec.character is not None and spec.character.start:
                     try:
@@ -195,10 +198,15 @@ class Scene:
         entity = spawn_body(self, spec.template, spec.name, spec.position, spec.facing, spec.height,
                             spec.mass, spec.color, spec.pain, spec.damping)  # fmt: skip
         self.names.add(spec.name, entity)
-        if spec.character is not None:
-            make_character(self, entity, spec.facing, spec.character)
-            return CharacterHandle(self, entity, spec.name)
-        return BodyHandle(self, entity, spec.name)
+        if spec.character is None:
+            return BodyHandle(self, entity, spec.name)
+        make_character(self, entity, spec.facing, spec.character)
+        for behavior in spec.behaviors:
+            self.world.add_component(entity, behavior.component)
+        if spec.perception is not None:
+            self.world.add_component(entity, spec.perception)
+            self.world.add_component(entity, Memory())
+        return CharacterHandle(self, entity, spec.name)
 
     def spawn(
         self,
@@ -213,8 +221,9 @@ class Scene:
         ``params``: ``height`` (m), ``mass`` (kg, total), ``color`` ([r, g, b]),
         ``pain`` ({threshold, half_life, gain} or False), ``damping`` ({air, ground}),
         ``character`` (True, or a mapping of ``max_speed`` and the scene file's starting
-        commands - ``walk``, ``look_at``... - which it then starts doing). The name
-        defaults to ``template`` plus a number; it must be unique.
+        commands - ``walk``, ``look_at``... - which it then starts doing); for a character,
+        ``perception`` and ``behaviors`` as in a scene file (a behaviour must be one of this
+        scene's systems). The name defaults to ``template`` plus a number; it must be unique.
         """
         if name is None:
             name = next(f"{template}{k}" for k in itertools.count(1) if f"{template}{k}" not in self.names)
@@ -222,7 +231,14 @@ class Scene:
             raise SceneError(f"an entity named '{name}' already exists")
         raw = YDict({"name": name, "body": template, "position": list(position), "facing": facing, **params})
         raw.file = "<spawn>"
-        spec = read_entity(raw, f"spawn({name!r})", self.library)
+        here = f"spawn({name!r})"
+        spec = read_entity(raw, here, self.library)
+        spec.perception = read_perception(raw, here, spec)
+        spec.behaviors = read_behaviors(raw, here, {n: type(b) for n, b in self.behaviors.items()}, [], spec)
+        for behavior in spec.behaviors:
+            if behavior.name not in self.behaviors:  # an installed plug-in's, not running here
+                raise SceneError(f"{here}: behaviour '{behavior.name}' is not one of this scene's systems "
+                                 "(add it with add_system, or in the scene file's systems:)")  # fmt: skip
         handle = self._spawn_spec(spec)
         if spec.character is not None and spec.character.start:
             try:

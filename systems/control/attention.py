@@ -31,10 +31,10 @@ class AttentionSystem(System):
     name = "attention"
 
     def setup(self) -> None:
-        """Caches of names, body rows and head nodes, refreshed when the store changes."""
+        """Caches of names, body rows and the nodes looked at, refreshed when the store changes."""
         self._key: tuple[int, int] = (-1, -1)
         self._rows: list[tuple[str, int]] = []
-        self._head_nodes: dict[str, int] = {}
+        self._look_nodes: dict[str, int] = {}
 
     def _refresh(self) -> None:
         state, scene = self.scene.state, self.scene
@@ -50,11 +50,14 @@ class AttentionSystem(System):
         row_of = {int(bodies.entity[b]): b for b in range(bodies.count) if free[b] > 0}
         entities = [(name, scene.entity_id(name)) for name in names]
         self._rows = [(name, row_of[entity]) for name, entity in entities if entity in row_of]
-        self._head_nodes = {}
+        self._look_nodes = {}
         for name, entity in entities:
             body = self.world.try_component(entity, Body)
-            if body is not None and "head" in body.node_names:
-                self._head_nodes[name] = body.node_index("head")
+            # a character's head (look_at(name, node="head")); a thing's node that
+            # look_at(name) picks by name; a thing with neither is looked at through look_at
+            found = [n for n in ("head", "centre", "spine") if body is not None and n in body.node_names]
+            if found:
+                self._look_nodes[name] = body.node_index(found[0])
         self._key = key
 
     def _body_rows(self) -> list[tuple[str, int]]:
@@ -62,10 +65,22 @@ class AttentionSystem(System):
         self._refresh()
         return self._rows
 
-    def _heads(self) -> dict[str, int]:
-        """Head node row of every named entity that has a head."""
+    def _look_nodes_by_name(self) -> dict[str, int]:
+        """The node row a character looks at on an entity it attends to (a character's head),
+        where a name decides it."""
         self._refresh()
-        return self._head_nodes
+        return self._look_nodes
+
+    def _sums_index(self, n: int, n_bodies: int) -> tuple[np.ndarray, np.ndarray]:
+        """(body x 3 + axis of every node coordinate, nodes per body at least 1), per layout."""
+        key = (self.scene.state.version, n, n_bodies)
+        cached = self.__dict__.get("_sums")
+        if cached is None or cached[0] != key:
+            body = self.scene.state.nodes.body[:n]
+            bins = (body[:, None] * 3 + np.arange(3)).ravel()
+            counts = np.maximum(np.bincount(body, minlength=n_bodies), 1)
+            cached = self._sums = (key, (bins, counts))
+        return cached[1]
 
     def run(self, ctx: StepContext) -> None:
         """Perceive, fade, appraise and pick a focus for every perceiving character."""
@@ -76,44 +91,48 @@ class AttentionSystem(System):
             return
         state = scene.state
         nodes, bodies = state.nodes, state.bodies
-        # where every body is and how fast it goes (mean of its nodes), in one pass
-        n = nodes.count
-        counts = np.maximum(np.bincount(nodes.body[:n], minlength=bodies.count), 1)
-        mean_pos = np.stack(
-            [np.bincount(nodes.body[:n], nodes.pos[:n, k], bodies.count) for k in range(3)], 1
-        )
-        mean_vel = np.stack(
-            [
-                np.bincount(nodes.body[:n], nodes.pos[:n, k] - nodes.prev[:n, k], bodies.count)
-                for k in range(3)
-            ],
-            1,
-        )
+        # where every body is and how fast it goes (mean of its nodes), in one pass: one
+        # bincount over every coordinate adds each body's nodes in node order, as one per axis did
+        n, n_bodies = nodes.count, bodies.count
+        bins, counts = self._sums_index(n, n_bodies)
+        size = 3 * n_bodies
+        mean_pos = np.bincount(bins, nodes.pos[:n].ravel(), size).reshape(n_bodies, 3)
+        mean_vel = np.bincount(bins, (nodes.pos[:n] - nodes.prev[:n]).ravel(), size).reshape(n_bodies, 3)
         mean_pos /= counts[:, None]
         speed = np.linalg.norm(mean_vel / counts[:, None], axis=1) / dt
-        centres: dict[str, np.ndarray] = {}
-        speeds: dict[str, float] = {}
-        for name, b in self._body_rows():
-            centres[name], speeds[name] = mean_pos[b], float(speed[b])
+        rows = self._body_rows()
+        # plain floats for the view-cone arithmetic (numpy's per-call cost on 3-vectors was
+        # most of this system); the numpy rows kept for what memory records
+        at = mean_pos[[b for _, b in rows]]
+        centres = dict(zip((name for name, _ in rows), zip(at.tolist(), at, strict=True), strict=True))
+        speeds = dict(zip((name for name, _ in rows), speed[[b for _, b in rows]].tolist(), strict=True))
         fade = 0.5 ** (dt / 1.0)
         ch = state.characters
+        look_nodes = self._look_nodes_by_name()
         for entity, (character, perception, memory) in perceivers:
             me = scene.character_handle(entity)
             row = character.index
-            head = nodes.pos[ch.nodes[row, HEAD]].copy()
-            face = ch.head_dir[row].copy()
+            head = nodes.pos[ch.nodes[row, HEAD]]
+            face = ch.head_dir[row]
+            hx, hy, hz = head.tolist()
+            fx, fy, fz = face.tolist()
             cos_half = math.cos(math.radians(perception.view_angle / 2))
             decay = fade ** (1.0 / perception.memory_half_life)
             anxiety = 0.0
             attachment = ctx.world.try_component(entity, Attachment)
             if attachment is not None:
                 anxiety = attachment.anxiety
-            for name, where in centres.items():
+            for name, ((x, y, z), where) in centres.items():
                 if name == me.name:
                     continue
-                off = where - head
-                dist = math.sqrt(off.dot(off))  # = np.linalg.norm(off), without its checks
-                seen = dist < perception.view_distance and (dist < 0.5 or off @ face / dist >= cos_half)
+                ox, oy, oz = x - hx, y - hy, z - hz
+                dist = math.sqrt(ox * ox + oy * oy + oz * oz)
+                seen = _in_view(dist, (ox * fx + oy * fy + oz * fz) / dist if dist > 0.0 else math.nan,
+                                perception.view_distance, cos_half)  # fmt: skip
+                if seen is None:  # too near an edge for plain sums: numpy's, as the rule is written
+                    off = where - head
+                    dist = math.sqrt(off.dot(off))
+                    seen = dist < perception.view_distance and (dist < 0.5 or off @ face / dist >= cos_half)
                 if seen:
                     memory.strength[name] = 1.0
                     memory.where[name] = tuple(where)
@@ -135,9 +154,27 @@ class AttentionSystem(System):
             memory.salience = salience
             memory.focus = max(salience, key=salience.__getitem__) if salience else None
             if memory.focus is not None:
-                head_node = self._heads().get(memory.focus)
-                if head_node is not None:  # a character: its head, as look_at(name, node="head")
-                    ch.gaze_node[row] = head_node
+                node = look_nodes.get(memory.focus)
+                if node is not None:
+                    ch.gaze_node[row] = node
                     ch.gaze_mode[row] = GAZE_NODE
                 else:
                     me.look_at(memory.focus)
+
+
+#: How near an edge of the view cone (relative) plain float sums leave the answer to numpy's.
+EDGE = 1e-9
+
+
+def _in_view(dist: float, cosine: float, view_distance: float, cos_half: float) -> bool | None:
+    """Whether a thing ``dist`` m off at ``cosine`` to the face direction is seen; None when
+    it is within :data:`EDGE` of an edge, where the rounding of the sums could decide."""
+    if abs(dist - view_distance) <= EDGE * view_distance or abs(dist - 0.5) <= EDGE:
+        return None
+    if dist >= view_distance:
+        return False
+    if dist < 0.5:
+        return True
+    if not abs(cosine - cos_half) > EDGE:  # (NaN too)
+        return None
+    return cosine >= cos_half
