@@ -8,6 +8,7 @@ one place, right after the store moves them.
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -82,6 +83,29 @@ def release(scene: SceneView, grab: int) -> None:
     state.rebuild_colliders()
 
 
+#: Per store: (its layout's key, the grab joints' link rows, the other links with an end at a
+#: gripped node) - they change only when rows are added or removed (``state.version``).
+_GRIPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _grip_links(state) -> tuple[np.ndarray, np.ndarray]:
+    """The grab joints' link rows and the other links (not grab joints) with an end at a
+    gripped node, in row order; found again only when the store's layout changes (a pass
+    over every link - the fence's boards too - cost more than the rest of :func:`slip`)."""
+    links = state.links
+    key = (state.version, links.count, state.nodes.count)
+    known = _GRIPS.get(state)
+    if known is not None and known[0] == key:
+        return known[1], known[2]
+    count = links.count
+    a, b, flags = links.a[:count], links.b[:count], links.flags[:count]
+    rows = np.flatnonzero(flags & LINK_GRAB)
+    gripped = gripped_nodes(state)
+    near = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & LINK_GRAB) == 0))
+    _GRIPS[state] = (key, rows, near)
+    return rows, near
+
+
 def slip(scene: SceneView, limit: float = GRIP_SLIP) -> list[int]:
     """Let go of every grip pulled more than ``limit`` m beyond its length - its grab
     joint's, or that of a link at either of its ends; returns the joints' entities, released
@@ -98,16 +122,13 @@ def slip(scene: SceneView, limit: float = GRIP_SLIP) -> list[int]:
     """
     state = scene.state
     links, pos = state.links, state.nodes.pos
-    count = links.count
-    a, b, flags = links.a[:count], links.b[:count], links.flags[:count]
-    rows = np.flatnonzero(flags & LINK_GRAB)
+    rows, near = _grip_links(state)
     if not len(rows):
         return []
+    a, b = links.a, links.b
     stretch = np.linalg.norm(pos[a[rows]] - pos[b[rows]], axis=1) - links.rest[rows]
     # the worst stretch (m) of a rigid link at each held or holding node
-    gripped = gripped_nodes(state)
-    own = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & (LINK_GRAB | LINK_OFF)) == 0)
-                         & (links.rest[:count] > 0))  # fmt: skip
+    own = near[((links.flags[near] & LINK_OFF) == 0) & (links.rest[near] > 0)]
     pull = np.zeros(state.nodes.count)
     own_stretch = np.linalg.norm(pos[a[own]] - pos[b[own]], axis=1) - links.rest[own]
     np.maximum.at(pull, a[own], own_stretch)

@@ -12,6 +12,8 @@ kept in a :class:`~twig_ecs.rowtable.RowTable`.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -70,7 +72,7 @@ def obstacles_near(character, exclude: set[str], cutoff: float) -> np.ndarray:
     scene = character.scene
     skip = np.array([scene.entity(name).body.index for name in sorted(exclude) if scene.has_entity(name)],
                     dtype=np.int64)  # fmt: skip
-    at = around(scene, grab_pairs(scene.world), extra_skip=len(skip))
+    at = around(scene, holds_now(scene), extra_skip=len(skip))
     here = character.position
     count = row_obstacles(at, here[0], here[1], here[2], character.body.index, skip, cutoff, STEP_OVER)
     return at.obstacles[:count].copy()
@@ -221,7 +223,7 @@ def steer_batch(scene, crows: np.ndarray, skip_bodies: np.ndarray, there: np.nda
     w.squeeze_until[:] = [m.get("squeeze_until", -np.inf) for m in memories]
     best, squeeze_until = w.best.copy(), w.squeeze_until.copy()
     walk = np.zeros((n, 3))
-    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
+    steer_rows(around(scene, holds_now(scene), extra_skip=1), w, _GAINS, walk, ch.mode[crows], now,
                scene.dt)  # fmt: skip
     if ((w.status != WALKING) & (w.status != SAT) & (w.status != ARRIVED)).any():
         return None  # stalled (the goal fails), or a walk it cannot do
@@ -239,7 +241,8 @@ def _one_row(character, point, speed: float | None, exclude) -> Walkers:
     if speed is not None:
         row.speed[0] = speed
     skip = [scene.entity(name).body.index for name in sorted(exclude) if scene.has_entity(name)]
-    return row._replace(skip_bodies=np.array(skip, dtype=np.int64), skip_count=np.array([len(skip)]))
+    row.skip_count[0] = len(skip)
+    return row._replace(skip_bodies=np.array(skip, dtype=np.int64)) if skip else row
 
 
 def _steer_one(character, row: Walkers, field: Gains) -> np.ndarray:
@@ -247,9 +250,24 @@ def _steer_one(character, row: Walkers, field: Gains) -> np.ndarray:
     scene = character.scene
     walk = np.zeros((1, 3))
     me = character.character_row
-    steer_rows(around(scene, grab_pairs(scene.world), extra_skip=len(row.skip_bodies)), row, field, walk,
+    steer_rows(around(scene, holds_now(scene), extra_skip=len(row.skip_bodies)), row, field, walk,
                scene.state.characters.mode[me : me + 1], scene.time, scene.dt)  # fmt: skip
     return walk
+
+
+#: Per store: (its layout's version, :func:`grab_pairs` then).
+_HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def holds_now(scene) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`grab_pairs` of ``scene``'s world, the same tuple until the store's layout changes
+    (every grab and every release adds or removes a link row): what :func:`around` keeps
+    its arrays for."""
+    state = scene.state
+    kept = _HOLDS.get(state)
+    if kept is None or kept[0] != state.version:
+        kept = _HOLDS[state] = (state.version, grab_pairs(scene.world))
+    return kept[1]
 
 
 def grab_pairs(world) -> tuple[np.ndarray, np.ndarray]:

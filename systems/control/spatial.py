@@ -15,6 +15,7 @@ again on its first query.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Hashable
 from typing import Any
 
 import numpy as np
@@ -225,6 +226,18 @@ class SpatialIndex:
     def of(cls, scene) -> SpatialIndex:
         """The index of ``scene``'s world."""
         return scene.world.resource(cls)
+
+    def per_step(self, scene, key: Hashable, make: Callable[[], Any]) -> Any:
+        """``make()``, made once a step for each ``key`` (and again when the store's layout
+        changes): a value several characters steering one at a time share."""
+        step = (scene.frame, scene.state.version)
+        kept = self.__dict__.get("_per_step")
+        if kept is None or kept[0] != step:
+            kept = self._per_step = (step, {})
+        found = kept[1].get(key)
+        if found is None:
+            found = kept[1][key] = make()
+        return found
 
     def grid(self, scene) -> tuple:
         """This step's ground grid of the nodes and the scratch arrays of a query: (start,

@@ -122,19 +122,26 @@ def walkers(n: int) -> Walkers:
     """The arrays of ``n`` rows, every one a point target reached from where it is, no extras
     skipped, a fresh stall clock; the caller fills in what its rows need (or replaces a
     field with its own array: ``walkers(n)._replace(stop=...)``)."""
-    # a block per dtype for the 1-d fields (a one-row batch is made per call: few allocations)
+    # (a character steering alone makes a one-row batch per call: copies of one made once)
+    blocks = [block.copy() for block in _ONE_ROW] if n == 1 else _blocks(n)
+    f, i, u, target, point, direction = blocks
+    return Walkers(i[0], i[1], i[2], target, point, f[0], f[1], direction, u[0], f[6], f[7], f[8], u[1],
+                   np.zeros(0, np.int64), i[3], i[4], f[9], f[10], f[11], i[5], f[2], u[2])  # fmt: skip
+
+
+def _blocks(n: int) -> list[np.ndarray]:
+    """:func:`walkers`' arrays: a block per dtype for the 1-d fields (few allocations), then the
+    target, point and direction."""
     f = np.zeros((12, n))
     i = np.zeros((8, n), np.int64)
     u = np.zeros((3, n), np.uint8)
     f[6:10] = np.array([_FIELD.speed, np.inf, np.inf, np.inf])[:, None]  # speed, max speed, stall, best
     f[11] = -np.inf  # squeeze_until
     u[0] = 1  # curl
-    return Walkers(
-        crows=i[0], pelvis=i[1], me=i[2], target=np.zeros((n, 5), np.int64), point=np.zeros((n, 3)),
-        stop=f[0], arrive=f[1], direction=np.zeros((n, 4)), curl=u[0], speed=f[6], max_speed=f[7], stall=f[8],
-        squeeze=u[1], skip_bodies=np.zeros(0, np.int64), skip_start=i[3], skip_count=i[4], best=f[9],
-        best_at=f[10], squeeze_until=f[11], status=i[5], distance=f[2], improved=u[2],
-    )  # fmt: skip
+    return [f, i, u, np.zeros((n, 5), np.int64), np.zeros((n, 3)), np.zeros((n, 4))]
+
+
+_ONE_ROW = _blocks(1)
 
 
 def around(scene, holds: tuple[np.ndarray, np.ndarray] | None = None, shapes: bool = True,
@@ -146,9 +153,19 @@ def around(scene, holds: tuple[np.ndarray, np.ndarray] | None = None, shapes: bo
     walls and wide bodies are steered round by their shape (False: by their nearest node,
     as any body). ``extra_skip``: the most bodies a row skips besides itself and holdings.
     """
+    index = SpatialIndex.of(scene)
+    # one per step for each kind of call: a character or two steering one at a time made it
+    # again for every call (its parts are the index's, built once a step, and scratch); the
+    # key holds the id of ``holds``, which the kept value keeps alive for the step
+    return index.per_step(scene, ("around", shapes, extra_skip, id(holds)),
+                          lambda: (holds, _around(scene, index, holds, shapes, extra_skip)))[1]  # fmt: skip
+
+
+def _around(scene, index: SpatialIndex, holds: tuple[np.ndarray, np.ndarray] | None, shapes: bool,
+            extra_skip: int) -> Around:  # fmt: skip
+    """:func:`around`, made afresh."""
     state = scene.state
     nodes, links = state.nodes, state.links
-    index = SpatialIndex.of(scene)
     start, entries, slot, scratch, found = index.grid(scene)
     cx, cz, spread, wide, walls, blocked = index.footprints(scene)
     if shapes:
@@ -270,8 +287,7 @@ def row_obstacles(at: Around, hx, hy, hz, me, skip_bodies, cutoff, step_over):
     return n_obs
 
 
-@njit(cache=True, nogil=True)
-def steer_rows(at: Around, rows: Walkers, gains: Gains, walk, mode, now, dt):
+def steer_rows(at: Around, rows: Walkers, gains: Gains, walk, mode, now, dt) -> None:
     """Walk every row towards its target round obstacles; write its walk vector into ``walk``
     (by character row) and its status (WALKING, ARRIVED, STUCK, SAT, CHECK) into ``rows.status``.
 
@@ -282,6 +298,15 @@ def steer_rows(at: Around, rows: Walkers, gains: Gains, walk, mode, now, dt):
     row begins a squeeze). A BODY or CHARACTER target is pursued: its velocity is added,
     the sum capped at the row's speed (not while squeezing).
     """
+    # plain tuples: numba types a plain tuple's arrays in C, a NamedTuple's in Python (some
+    # 0.3 us an array: half the call of a character steering alone)
+    steer_tuples(tuple(at), tuple(rows), tuple(gains), walk, mode, now, dt)
+
+
+@njit(cache=True, nogil=True)
+def steer_tuples(at, rows, gains, walk, mode, now, dt):
+    """:func:`steer_rows` over its three structures as plain tuples."""
+    at, rows, gains = Around(*at), Walkers(*rows), Gains(*gains)
     for k in range(len(rows.crows)):
         c = rows.crows[k]
         p = rows.pelvis[k]
