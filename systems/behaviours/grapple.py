@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
+from twig_ecs.character import CharacterHandle
 from twig_ecs.components import Character
 from twig_ecs.goals import GoalSchema, Param, seconds
 from twig_ecs.kernelmath import (
@@ -104,9 +105,11 @@ class Grapple(Behavior):
                 m["fighting"] = m["in_reach"] = now
                 m.pop("best", None)
             return
-        gap = ground_distance(character.position, other.position)
-        away = _unit((character.position - other.position) * np.array([1.0, 0.0, 1.0]))
-        if hasattr(other, "facing") and float(other.facing @ away) < TURNED_AWAY:
+        here, there = character.position, other.position
+        gap = ground_distance(here, there)
+        away = _unit((here - there) * np.array([1.0, 0.0, 1.0]))
+        # (a character faces somewhere; a body has no facing - the property computed twice here)
+        if isinstance(other, CharacterHandle) and float(other.facing @ away) < TURNED_AWAY:
             # turned away (it flinched, it is leaving), near or already a step off: no blows at
             # its side or back and no chase, guard up; the fight's clock waits, and if it stays
             # turned away it has got away (the straight-legged fighter, a step behind, went on
@@ -123,14 +126,14 @@ class Grapple(Behavior):
             if now - m["in_reach"] > LET_GO:
                 self.finish(character, goal)
                 return
-            toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
+            toward = _unit((there - here) * np.array([1.0, 0.0, 1.0]))
             character.walk(tuple(toward * FOLLOW * scale**0.5))
             return
         m["in_reach"] = now
         if gap > ARMS_LENGTH * scale:
             # a little beyond arm's length (it stopped short, or the target leaned back):
             # edge in while the blows go on, else the fists fall short
-            toward = _unit((other.position - character.position) * np.array([1.0, 0.0, 1.0]))
+            toward = _unit((there - here) * np.array([1.0, 0.0, 1.0]))
             character.walk(tuple(toward * EDGE_IN * scale**0.5))
         else:
             character.stop()

@@ -29,8 +29,7 @@ class Watch(Behavior):
     def _charges(self, character) -> list:
         """Handles of the charges that exist and are characters (a name reused by a ball is no charge)."""
         scene = self.scene
-        names = scene.entity_names
-        handles = [scene.entity(c) for c in self.settings(character).charges if c in names]
+        handles = [scene.entity(c) for c in self.settings(character).charges if scene.has_entity(c)]
         return [h for h in handles if isinstance(h, CharacterHandle)]
 
     def activation(self, character, mind: Mind, goal) -> float:

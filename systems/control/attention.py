@@ -104,13 +104,14 @@ class AttentionSystem(System):
         # plain floats for the view-cone arithmetic (numpy's per-call cost on 3-vectors was
         # most of this system); the numpy rows kept for what memory records
         at = mean_pos[[b for _, b in rows]]
-        centres = dict(zip((name for name, _ in rows), zip(at.tolist(), at, strict=True), strict=True))
+        kept = [tuple(where) for where in at]  # (numpy's floats, as memory always kept them)
+        centres = dict(zip((name for name, _ in rows), zip(at.tolist(), kept, strict=True), strict=True))
         speeds = dict(zip((name for name, _ in rows), speed[[b for _, b in rows]].tolist(), strict=True))
         fade = 0.5 ** (dt / 1.0)
         ch = state.characters
         look_nodes = self._look_nodes_by_name()
         for entity, (character, perception, memory) in perceivers:
-            me = scene.character_handle(entity)
+            my_name = scene.name_of(entity)
             row = character.index
             head = nodes.pos[ch.nodes[row, HEAD]]
             face = ch.head_dir[row]
@@ -123,19 +124,19 @@ class AttentionSystem(System):
             if attachment is not None:
                 anxiety = attachment.anxiety
             for name, ((x, y, z), where) in centres.items():
-                if name == me.name:
+                if name == my_name:
                     continue
                 ox, oy, oz = x - hx, y - hy, z - hz
                 dist = math.sqrt(ox * ox + oy * oy + oz * oz)
                 seen = _in_view(dist, (ox * fx + oy * fy + oz * fz) / dist if dist > 0.0 else math.nan,
                                 perception.view_distance, cos_half)  # fmt: skip
                 if seen is None:  # too near an edge for plain sums: numpy's, as the rule is written
-                    off = where - head
+                    off = np.array(where) - head
                     dist = math.sqrt(off.dot(off))
                     seen = dist < perception.view_distance and (dist < 0.5 or off @ face / dist >= cos_half)
                 if seen:
                     memory.strength[name] = 1.0
-                    memory.where[name] = tuple(where)
+                    memory.where[name] = where
                 elif name in memory.strength:
                     memory.strength[name] *= decay
             salience = {}
@@ -159,7 +160,7 @@ class AttentionSystem(System):
                     ch.gaze_node[row] = node
                     ch.gaze_mode[row] = GAZE_NODE
                 else:
-                    me.look_at(memory.focus)
+                    scene.character_handle(entity).look_at(memory.focus)
 
 
 #: How near an edge of the view cone (relative) plain float sums leave the answer to numpy's.
