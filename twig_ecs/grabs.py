@@ -8,6 +8,7 @@ one place, right after the store moves them.
 
 from __future__ import annotations
 
+import math
 import weakref
 from typing import TYPE_CHECKING
 
@@ -83,27 +84,67 @@ def release(scene: SceneView, grab: int) -> None:
     state.rebuild_colliders()
 
 
-#: Per store: (its layout's key, the grab joints' link rows, the other links with an end at a
-#: gripped node) - they change only when rows are added or removed (``state.version``).
+#: Per store: (its layout's key, :func:`_grip_links`' answer) - it changes only when rows are
+#: added or removed (``state.version``).
 _GRIPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _grip_links(state) -> tuple[np.ndarray, np.ndarray]:
-    """The grab joints' link rows and the other links (not grab joints) with an end at a
-    gripped node, in row order; found again only when the store's layout changes (a pass
-    over every link - the fence's boards too - cost more than the rest of :func:`slip`)."""
+def _grip_links(state) -> tuple[list[int], list[int], np.ndarray, list[int]]:
+    """The grab joints' link rows, the other links (not grab joints) with an end at a gripped
+    node, both in row order, every such link's two end nodes (a, b, a, b...: the grab joints
+    first) as an index array and as ints; found again only when the store's layout changes
+    (a pass over every link - the fence's boards too - cost more than the rest of :func:`slip`)."""
     links = state.links
     key = (state.version, links.count, state.nodes.count)
     known = _GRIPS.get(state)
     if known is not None and known[0] == key:
-        return known[1], known[2]
+        return known[1]
     count = links.count
     a, b, flags = links.a[:count], links.b[:count], links.flags[:count]
     rows = np.flatnonzero(flags & LINK_GRAB)
     gripped = gripped_nodes(state)
     near = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & LINK_GRAB) == 0))
-    _GRIPS[state] = (key, rows, near)
-    return rows, near
+    both = np.concatenate([rows, near])
+    ends = np.stack([a[both], b[both]], axis=1).reshape(-1).astype(np.int64)
+    found = (rows.tolist(), near.tolist(), ends, ends.tolist())
+    _GRIPS[state] = (key, found)
+    return found
+
+
+def _np_max(x: float, y: float) -> float:
+    """``np.maximum`` of two floats: the larger, NaN if either is."""
+    return x if x >= y or x != x else y
+
+
+def grip_tensions(state) -> list[tuple[int, float]]:
+    """(link row, tension in m) of every grab joint, in row order: how far it, or a rigid link at
+    either of its ends, is pulled beyond its length, whichever is more (:func:`slip`)."""
+    links = state.links
+    rows, near, ends, nodes = _grip_links(state)
+    if not rows:
+        return []
+    # a grip or two and the few links at its ends, in plain floats (numpy's per-call cost on
+    # arrays of a few rows was most of a schoolyard step's share); the lengths are summed as
+    # np.linalg.norm sums a row, ((x^2 + y^2) + z^2), so every figure is numpy's
+    at = state.nodes.pos[ends].tolist()
+    both = rows + near
+    rest = links.rest[both].tolist()
+    flags = links.flags[near].tolist()
+    stretch = []
+    for k in range(len(both)):
+        (ax, ay, az), (bx, by, bz) = at[2 * k], at[2 * k + 1]
+        dx, dy, dz = ax - bx, ay - by, az - bz
+        stretch.append(math.sqrt((dx * dx + dy * dy) + dz * dz) - rest[k])
+    # the worst stretch (m) of a rigid link at each held or holding node (0 with none)
+    pull: dict[int, float] = {}
+    for k in range(len(near)):
+        j = len(rows) + k
+        if flags[k] & LINK_OFF or not rest[j] > 0:
+            continue
+        for node in (nodes[2 * j], nodes[2 * j + 1]):
+            pull[node] = _np_max(pull.get(node, 0.0), stretch[j])
+    return [(row, _np_max(stretch[k], _np_max(pull.get(nodes[2 * k], 0.0), pull.get(nodes[2 * k + 1], 0.0))))
+            for k, row in enumerate(rows)]  # fmt: skip
 
 
 def slip(scene: SceneView, limit: float = GRIP_SLIP) -> list[int]:
@@ -121,20 +162,8 @@ def slip(scene: SceneView, limit: float = GRIP_SLIP) -> list[int]:
     pulled too hard gives way.
     """
     state = scene.state
-    links, pos = state.links, state.nodes.pos
-    rows, near = _grip_links(state)
-    if not len(rows):
-        return []
-    a, b = links.a, links.b
-    stretch = np.linalg.norm(pos[a[rows]] - pos[b[rows]], axis=1) - links.rest[rows]
-    # the worst stretch (m) of a rigid link at each held or holding node
-    own = near[((links.flags[near] & LINK_OFF) == 0) & (links.rest[near] > 0)]
-    pull = np.zeros(state.nodes.count)
-    own_stretch = np.linalg.norm(pos[a[own]] - pos[b[own]], axis=1) - links.rest[own]
-    np.maximum.at(pull, a[own], own_stretch)
-    np.maximum.at(pull, b[own], own_stretch)
-    tension = np.maximum(stretch, np.maximum(pull[a[rows]], pull[b[rows]]))
-    slipped = [int(links.entity[row]) for row in rows[tension > limit]]
+    links = state.links
+    slipped = [int(links.entity[row]) for row, pulled in grip_tensions(state) if pulled > limit]
     for grab in slipped:
         for _, character in scene.world.get_component(Character):
             for hand, held in character.holding.items():

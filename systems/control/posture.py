@@ -47,7 +47,6 @@ from twig_ecs.kernelmath import (
     R_SHOULDER,
     REACH,
     RISE,
-    RUN_BLEND,
     SIT,
     SPINE,
     STAND,
@@ -632,21 +631,15 @@ class PostureSystem(System):
             return
         g = ctx.settings.gravity
         # which hands hold something (a grab joint from the hand): not put on a thigh as it
-        # gets up, nor swung in a run (only rising and running read it: looked up only then)
-        if (ch.mode[: ch.count] == RISE).any() or self._running(ch, g):
-            links = s.links
-            grabs = links.a[: links.count][(links.flags[: links.count] & LINK_GRAB) != 0]
-            holding = np.isin(ch.nodes[: ch.count, L_HAND : R_HAND + 1], grabs)
-        else:
-            holding = np.zeros((ch.count, 2), dtype=np.bool_)
+        # gets up, nor swung in a run (the nodes that hold, found again only when the layout changes)
+        gripping = self.scratch.keyed("gripping", (s.version, s.links.count, n.count), lambda: _gripping(s))
+        holding = gripping[ch.nodes[: ch.count, L_HAND : R_HAND + 1]]
         control_posture(columns(PostureColumns, n, ch), ch.count, g, dt, holding)
 
-    @staticmethod
-    def _running(ch, gravity) -> bool:
-        """Is anyone asked for a pace past where the run's arms come in (Froude
-        WALK_FROUDE_MAX less half the blend, ``kernelmath.run_share``) with a hanging arm."""
-        count = ch.count
-        g = float(np.linalg.norm(gravity))
-        pace = np.einsum("ij,ij->i", ch.walk[:count], ch.walk[:count])
-        fast = pace > (WALK_FROUDE_MAX - 0.5 * RUN_BLEND) * g * ch.leg_length[:count]
-        return bool((fast & (ch.arm_mode[:count] == HANG).any(axis=1)).any())
+
+def _gripping(state) -> np.ndarray:
+    """Per node: does a grab joint start at it (a hand that holds something)?"""
+    links = state.links
+    gripping = np.zeros(state.nodes.count, dtype=np.bool_)
+    gripping[links.a[: links.count][(links.flags[: links.count] & LINK_GRAB) != 0]] = True
+    return gripping

@@ -168,7 +168,7 @@ class SelectBehaviorSystem(System):
         # the others through the loop, in entity order, their listed proposals in their dicts
         each = [items[k] for k in np.flatnonzero(alone).tolist()]
         for k in np.flatnonzero(alone & present.any(axis=1)).tolist():
-            self._merge(minds[k], listed, present[k], values[k])
+            self._merge(minds[k], listed, present[k], values[k].tolist())
         for entity, mind in self._select_each(each, ctx.dt, batches, joined, table.position):
             k = table.position[entity]
             table.winner[k], table.since[k] = table.code(mind.winner), mind.since
@@ -245,13 +245,18 @@ class SelectBehaviorSystem(System):
         self.scratch[("members", name)] = (table, goals_changed, at, members)
         return members
 
-    def _merge(self, mind: Mind, listed: list, present: np.ndarray, values: np.ndarray) -> None:
+    def _merge(self, mind: Mind, listed: list, present: np.ndarray, values: list[float]) -> None:
         """Put one character's listed proposals into its mind's dict, with those there, in the
         order they were made (:meth:`_ranks`)."""
-        proposals = {listed[c][1]: float(values[c]) for c in np.flatnonzero(present)}
+        proposals = {listed[c][1]: values[c] for c in np.flatnonzero(present).tolist()}
         own = mind.activations
         if own:
-            ranks = self.scratch.keyed("ranks", self.scene.frame, self._ranks)
+            # kept while the schedule's order is the same list (made again when a system comes;
+            # a system taking an empty stage leaves an equal list, so `is`, not `==`)
+            order, kept = self.scene.schedule.order(), self.scratch.get("ranks")
+            if kept is None or kept[0] is not order:
+                kept = self.scratch["ranks"] = (order, self._ranks())
+            ranks = kept[1]
             proposals.update(own)
             merged = sorted(proposals.items(), key=lambda item: ranks.get(item[0], -len(ranks)))
             own.clear()
