@@ -167,3 +167,17 @@ def test_a_bad_seed_or_an_unwritable_name_from_python_is_refused_with_a_clear_er
         assert scene.seed == 7
     with pytest.raises(SceneError, match="lone surrogate"):
         empty_scene.spawn("ball", name="\ud800")  # a trace or a snapshot could not write it out
+
+
+def test_a_balls_position_and_velocity_are_the_mass_weighted_means_bit_for_bit(empty_scene):
+    # a one-node body takes a shortcut in plain floats: it must give numpy's figures exactly
+    ball = empty_scene.spawn("ball", name="b", position=(0.3, 1.2, -0.4))
+    ball.set_velocity((1.7, 0.4, -2.9))
+    empty_scene.step(7)
+    nodes, rows = empty_scene.state.nodes, ball.body.rows
+    m = nodes.mass[rows]
+    position = (nodes.pos[rows] * m[:, None]).sum(axis=0) / m.sum()
+    velocity = ((nodes.pos[rows] - nodes.prev[rows]) / empty_scene.dt * m[:, None]).sum(axis=0) / m.sum()
+    assert ball.position.tolist() == position.tolist()
+    assert ball.velocity.tolist() == velocity.tolist()
+    assert abs(ball.velocity[2] + 2.9) < 0.05  # (it flies: a figure that could be wrong)

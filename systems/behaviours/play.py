@@ -660,7 +660,12 @@ def _arc(character, foot: str, end: np.ndarray, duration: float) -> float:
     return (steps - 0.5) * dt
 
 
+#: Keeps a vector's ground-plane part (x, z).
+_GROUND_PART = np.array([1.0, 0.0, 1.0])
+
+
 def _flat_unit(v: np.ndarray) -> np.ndarray:
-    v = v * np.array([1.0, 0.0, 1.0])
+    """``v``'s ground-plane direction (x, 0, z), a unit vector; +z for a vertical ``v``."""
+    v = v * _GROUND_PART
     n = float(np.linalg.norm(v))
     return v / n if n > 1e-9 else np.array([0.0, 0.0, 1.0])
