@@ -89,11 +89,12 @@ def release(scene: SceneView, grab: int) -> None:
 _GRIPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _grip_links(state) -> tuple[list[int], list[int], np.ndarray, list[int]]:
-    """The grab joints' link rows, the other links (not grab joints) with an end at a gripped
-    node, both in row order, every such link's two end nodes (a, b, a, b...: the grab joints
-    first) as an index array and as ints; found again only when the store's layout changes
-    (a pass over every link - the fence's boards too - cost more than the rest of :func:`slip`)."""
+def _grip_links(state) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """The grab joints' link rows (ints), the other links (not grab joints) with an end at a
+    gripped node, both in row order, then the two together, and every such link's two end
+    nodes (a, b, a, b...: the grab joints first) as an index array and as ints; found again
+    only when the store's layout changes (a pass over every link - the fence's boards too - cost
+    more than the rest of :func:`slip`)."""
     links = state.links
     key = (state.version, links.count, state.nodes.count)
     known = _GRIPS.get(state)
@@ -106,7 +107,7 @@ def _grip_links(state) -> tuple[list[int], list[int], np.ndarray, list[int]]:
     near = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & LINK_GRAB) == 0))
     both = np.concatenate([rows, near])
     ends = np.stack([a[both], b[both]], axis=1).reshape(-1).astype(np.int64)
-    found = (rows.tolist(), near.tolist(), ends, ends.tolist())
+    found = (rows.tolist(), near, both, ends, ends.tolist())
     _GRIPS[state] = (key, found)
     return found
 
@@ -120,14 +121,13 @@ def grip_tensions(state) -> list[tuple[int, float]]:
     """(link row, tension in m) of every grab joint, in row order: how far it, or a rigid link at
     either of its ends, is pulled beyond its length, whichever is more (:func:`slip`)."""
     links = state.links
-    rows, near, ends, nodes = _grip_links(state)
+    rows, near, both, ends, nodes = _grip_links(state)
     if not rows:
         return []
     # a grip or two and the few links at its ends, in plain floats (numpy's per-call cost on
     # arrays of a few rows was most of a schoolyard step's share); the lengths are summed as
     # np.linalg.norm sums a row, ((x^2 + y^2) + z^2), so every figure is numpy's
     at = state.nodes.pos[ends].tolist()
-    both = rows + near
     rest = links.rest[both].tolist()
     flags = links.flags[near].tolist()
     stretch = []
