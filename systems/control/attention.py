@@ -32,55 +32,40 @@ class AttentionSystem(System):
 
     def setup(self) -> None:
         """Caches of names, body rows and the nodes looked at, refreshed when the store changes."""
-        self._key: tuple[int, int] = (-1, -1)
-        self._rows: list[tuple[str, int]] = []
-        self._look_nodes: dict[str, int] = {}
+        self._key: tuple[int, ...] = (-1,)
 
     def _refresh(self) -> None:
+        """Make the caches again if bodies were spawned or removed: the free bodies' names
+        and rows, the bincount bins of every node coordinate and the nodes per body, and the
+        node looked at on each named entity."""
         state, scene = self.scene.state, self.scene
         names = scene.entity_names
-        key = (state.version, len(names))  # bodies spawned or removed
+        bodies, nodes = state.bodies, state.nodes
+        key = (state.version, len(names), nodes.count, bodies.count)
         if key == self._key:
             return
-        bodies, nodes = state.bodies, state.nodes
         # static scenery (a fence: every node locked) is walked round, never looked at; a
         # yard of fence panels would otherwise cost every perceiver a pass per panel
         free = np.bincount(nodes.body[: nodes.count], (nodes.flags[: nodes.count] & NODE_LOCKED) == 0,
                            bodies.count)  # fmt: skip
         row_of = {int(bodies.entity[b]): b for b in range(bodies.count) if free[b] > 0}
         entities = [(name, scene.entity_id(name)) for name in names]
-        self._rows = [(name, row_of[entity]) for name, entity in entities if entity in row_of]
+        rows = [(name, row_of[entity]) for name, entity in entities if entity in row_of]
+        self._names = [name for name, _ in rows]
+        self._rows = np.array([b for _, b in rows], dtype=np.int64)
+        # body x 3 + axis of every node coordinate (one bincount sums all three axes)
+        body = nodes.body[: nodes.count]
+        self._bins = (body[:, None] * 3 + np.arange(3)).ravel()
+        self._counts = np.maximum(np.bincount(body, minlength=bodies.count), 1)
         self._look_nodes = {}
         for name, entity in entities:
-            body = self.world.try_component(entity, Body)
+            found = self.world.try_component(entity, Body)
             # a character's head (look_at(name, node="head")); a thing's node that
             # look_at(name) picks by name; a thing with neither is looked at through look_at
-            found = [n for n in ("head", "centre", "spine") if body is not None and n in body.node_names]
-            if found:
-                self._look_nodes[name] = body.node_index(found[0])
+            picked = [n for n in ("head", "centre", "spine") if found is not None and n in found.node_names]
+            if picked:
+                self._look_nodes[name] = found.node_index(picked[0])
         self._key = key
-
-    def _body_rows(self) -> list[tuple[str, int]]:
-        """(name, body row) of every named entity with a body, in spawn order."""
-        self._refresh()
-        return self._rows
-
-    def _look_nodes_by_name(self) -> dict[str, int]:
-        """The node row a character looks at on an entity it attends to (a character's head),
-        where a name decides it."""
-        self._refresh()
-        return self._look_nodes
-
-    def _sums_index(self, n: int, n_bodies: int) -> tuple[np.ndarray, np.ndarray]:
-        """(body x 3 + axis of every node coordinate, nodes per body at least 1), per layout."""
-        key = (self.scene.state.version, n, n_bodies)
-        cached = self.__dict__.get("_sums")
-        if cached is None or cached[0] != key:
-            body = self.scene.state.nodes.body[:n]
-            bins = (body[:, None] * 3 + np.arange(3)).ravel()
-            counts = np.maximum(np.bincount(body, minlength=n_bodies), 1)
-            cached = self._sums = (key, (bins, counts))
-        return cached[1]
 
     def run(self, ctx: StepContext) -> None:
         """Perceive, fade, appraise and pick a focus for every perceiving character."""
@@ -89,27 +74,26 @@ class AttentionSystem(System):
         perceivers = ctx.world.get_components(Character, Perception, Memory)
         if not perceivers:
             return
+        self._refresh()
         state = scene.state
-        nodes, bodies = state.nodes, state.bodies
+        nodes, n_bodies = state.nodes, state.bodies.count
+        n, bins, counts = nodes.count, self._bins, self._counts
         # where every body is and how fast it goes (mean of its nodes), in one pass: one
         # bincount over every coordinate adds each body's nodes in node order, as one per axis did
-        n, n_bodies = nodes.count, bodies.count
-        bins, counts = self._sums_index(n, n_bodies)
         size = 3 * n_bodies
         mean_pos = np.bincount(bins, nodes.pos[:n].ravel(), size).reshape(n_bodies, 3)
         mean_vel = np.bincount(bins, (nodes.pos[:n] - nodes.prev[:n]).ravel(), size).reshape(n_bodies, 3)
         mean_pos /= counts[:, None]
         speed = np.linalg.norm(mean_vel / counts[:, None], axis=1) / dt
-        rows = self._body_rows()
         # plain floats for the view-cone arithmetic (numpy's per-call cost on 3-vectors was
         # most of this system); the numpy rows kept for what memory records
-        at = mean_pos[[b for _, b in rows]]
+        at = mean_pos[self._rows]
         kept = [tuple(where) for where in at]  # (numpy's floats, as memory always kept them)
-        centres = dict(zip((name for name, _ in rows), zip(at.tolist(), kept, strict=True), strict=True))
-        speeds = dict(zip((name for name, _ in rows), speed[[b for _, b in rows]].tolist(), strict=True))
+        centres = dict(zip(self._names, zip(at.tolist(), kept, strict=True), strict=True))
+        speeds = dict(zip(self._names, speed[self._rows].tolist(), strict=True))
         fade = 0.5 ** (dt / 1.0)
         ch = state.characters
-        look_nodes = self._look_nodes_by_name()
+        look_nodes = self._look_nodes
         for entity, (character, perception, memory) in perceivers:
             my_name = scene.name_of(entity)
             row = character.index
