@@ -9,7 +9,6 @@ one place, right after the store moves them.
 from __future__ import annotations
 
 import math
-import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,7 +17,7 @@ from twig_ecs.components import Body, Character, GrabJoint
 from twig_ecs.errors import TwigError
 from twig_ecs.events import Grabbed, Released
 from twig_ecs.kernelmath import HANG
-from twig_ecs.store import LINK_GRAB, LINK_OFF, gripped_nodes
+from twig_ecs.store import LINK_GRAB, LINK_OFF, LayoutCache, gripped_nodes
 
 if TYPE_CHECKING:
     from twig_ecs.handles import BodyHandle
@@ -84,9 +83,9 @@ def release(scene: SceneView, grab: int) -> None:
     state.rebuild_colliders()
 
 
-#: Per store: (its layout's key, :func:`_grip_links`' answer) - it changes only when rows are
-#: added or removed (``state.version``).
-_GRIPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Per store: :func:`_grip_links`' answer, which changes only when rows are added or removed
+#: (``state.version``).
+_GRIPS = LayoutCache()
 
 
 def _grip_links(state) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, list[int]]:
@@ -96,10 +95,12 @@ def _grip_links(state) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, l
     only when the store's layout changes (a pass over every link - the fence's boards too - cost
     more than the rest of :func:`slip`)."""
     links = state.links
-    key = (state.version, links.count, state.nodes.count)
-    known = _GRIPS.get(state)
-    if known is not None and known[0] == key:
-        return known[1]
+    return _GRIPS.get(state, (state.version, links.count, state.nodes.count), lambda: _find_grip_links(state))
+
+
+def _find_grip_links(state) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, list[int]]:
+    """:func:`_grip_links`, found afresh."""
+    links = state.links
     count = links.count
     a, b, flags = links.a[:count], links.b[:count], links.flags[:count]
     rows = np.flatnonzero(flags & LINK_GRAB)
@@ -107,9 +108,7 @@ def _grip_links(state) -> tuple[list[int], np.ndarray, np.ndarray, np.ndarray, l
     near = np.flatnonzero((gripped[a] | gripped[b]) & ((flags & LINK_GRAB) == 0))
     both = np.concatenate([rows, near])
     ends = np.stack([a[both], b[both]], axis=1).reshape(-1).astype(np.int64)
-    found = (rows.tolist(), near, both, ends, ends.tolist())
-    _GRIPS[state] = (key, found)
-    return found
+    return rows.tolist(), near, both, ends, ends.tolist()
 
 
 def _np_max(x: float, y: float) -> float:

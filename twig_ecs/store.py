@@ -10,9 +10,11 @@ removing a body compacts the rows and returns an index remap so components can f
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from operator import itemgetter
+from typing import Any
 
 import numpy as np
 
@@ -473,6 +475,21 @@ def check_store(state: PhysicsState) -> None:
 def _check_rows(values: np.ndarray, lowest: int, count: int, what: str) -> None:
     if values.size and (values.min() < lowest or values.max() >= count):
         raise ValueError(f"{what} holds a row outside 0..{count - 1}")
+
+
+class LayoutCache:
+    """One value per store, made again only when its key (the store's layout: ``version``,
+    row counts...) changes; the stores are held weakly."""
+
+    def __init__(self) -> None:
+        self._kept: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+    def get(self, state: PhysicsState, key: Any, make: Callable[[], Any]) -> Any:
+        """The value kept for ``state`` under ``key``, or ``make()``'s, kept from now on."""
+        kept = self._kept.get(state)
+        if kept is None or kept[0] != key:
+            kept = self._kept[state] = (key, make())
+        return kept[1]
 
 
 def gripped_nodes(state: PhysicsState) -> np.ndarray:

@@ -12,8 +12,6 @@ kept in a :class:`~twig_ecs.rowtable.RowTable`.
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from twig_ecs.behavior import Behavior, Goal, Mind, register
@@ -22,6 +20,7 @@ from twig_ecs.goals import GoalSchema, Param, metres
 from twig_ecs.kernelmath import GAZE_NODE, GRAPPLE, HUG, PELVIS, REACH
 from twig_ecs.rowtable import Column, RowTable
 from twig_ecs.steering import ground_distance
+from twig_ecs.store import LayoutCache
 from twig_ecs.systems.control.spatial import STEP_OVER
 from twig_ecs.systems.control.steer import (  # noqa: F401 (the statuses: what approach's callers read)
     ALONG_UNIT,
@@ -255,19 +254,15 @@ def _steer_one(character, row: Walkers, field: Gains) -> np.ndarray:
     return walk
 
 
-#: Per store: (its layout's version, :func:`grab_pairs` then).
-_HOLDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Per store: :func:`grab_pairs`, by layout version.
+_HOLDS = LayoutCache()
 
 
 def holds_now(scene) -> tuple[np.ndarray, np.ndarray]:
     """:func:`grab_pairs` of ``scene``'s world, the same tuple until the store's layout changes
     (every grab and every release adds or removes a link row): what :func:`around` keeps
     its arrays for."""
-    state = scene.state
-    kept = _HOLDS.get(state)
-    if kept is None or kept[0] != state.version:
-        kept = _HOLDS[state] = (state.version, grab_pairs(scene.world))
-    return kept[1]
+    return _HOLDS.get(scene.state, scene.state.version, lambda: grab_pairs(scene.world))
 
 
 def grab_pairs(world) -> tuple[np.ndarray, np.ndarray]:

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import threading
-import weakref
 from typing import NamedTuple
 
 import numba
@@ -27,6 +26,7 @@ from twig_ecs.store import (
     NODE_LOCK_ON_CONTACT,
     NODE_LOCKED,
     NODE_MOVING,
+    LayoutCache,
     columns,
     gripped_nodes,
 )
@@ -138,18 +138,17 @@ def constraints_of(state) -> tuple:
     main = threading.current_thread() is threading.main_thread()
     threads = numba.get_num_threads()
     key = (state.version, n.count, links.count, limits.count, state.bodies.count, threads, main)
-    known = _KNOWN.get(state)
-    if known is not None and known[0] == key:
-        return known[1]
-    args = (columns(NodeColumns, n), columns(LinkColumns, links), columns(LimitColumns, limits),
-            columns(AxleColumns, n), body_plan(state, parallel=main and threads > 1),
-            gripped_nodes(state))  # fmt: skip
-    _KNOWN[state] = (key, args)
-    return args
+
+    def made() -> tuple:
+        return (columns(NodeColumns, n), columns(LinkColumns, links), columns(LimitColumns, limits),
+                columns(AxleColumns, n), body_plan(state, parallel=main and threads > 1),
+                gripped_nodes(state))  # fmt: skip
+
+    return _KNOWN.get(state, key, made)
 
 
-#: Per store: (its layout key, its :func:`constraints_of` tuple).
-_KNOWN: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Per store: its :func:`constraints_of` tuple, by layout.
+_KNOWN = LayoutCache()
 
 
 def body_plan(state, parallel: bool = True) -> tuple:
